@@ -1,0 +1,15 @@
+//! The pure core of IsoKiosk.
+//!
+//! Everything a visitor's gesture changes is computed here by deterministic code that takes time
+//! and randomness as inputs. This crate never touches the GPU, windows, audio, the filesystem or
+//! the clock: the shell hands it byte slices (memory maps) and timestamps. `clippy.toml` in this
+//! crate disallows the clock and the filesystem so the compiler guards that promise.
+
+pub mod geom;
+pub mod scene;
+
+pub use geom::Aabb;
+pub use scene::{
+    BoxTree, Cut, CutParams, CutStats, Hit, Level, NodeId, NodeRecord, QueryParams, Splat, Store, StoreError,
+    StoreHeader, TargetQuery, ViewParams,
+};

@@ -1,0 +1,656 @@
+//! The out-of-core hierarchy builder (balsa12 §4).
+//!
+//! 1. [`Builder::push`] takes samples one by one: it keeps the bounding box, a seeded reservoir
+//!    sample of positions, and the samples themselves in memory up to `chunk_points`, spilling
+//!    everything to a temporary file beyond that.
+//! 2. [`Builder::finish`] chooses the model origin (the centre of the bounding box, in `f64`) and,
+//!    when the samples were spilled, splits space with a kd-tree built on the reservoir sample
+//!    until each region is expected to hold at most half a chunk; one sequential pass distributes
+//!    the samples to one temporary file per region.
+//! 3. Each region is processed in memory: duplicates are merged, normals and spacings estimated
+//!    (when missing), the kd-tree continues down to leaves of at most `node_points` samples with
+//!    split planes chosen for compactness among balanced (median) candidates, and inner nodes are
+//!    built bottom-up by simplifying the union of their two children down to `node_points`.
+//! 4. The region roots are joined by the same simplification up to the root.
+//!
+//! Memory is bounded by about `chunk_points` samples plus the reservoir, whatever the input size.
+
+use crate::estimate::{self, Estimate};
+use crate::source::InputPoint;
+use crate::writer::{NodeStats, StoreWriter};
+use bytemuck::{Pod, Zeroable};
+use glam::{DVec3, Vec3};
+use kiosk_core::scene::boxtree::{self, BoxTree, KBest};
+use kiosk_core::{Aabb, Splat};
+use rand::{Rng, SeedableRng};
+use rayon::prelude::*;
+use std::fs::File;
+use std::io::{BufReader, BufWriter, Read, Write};
+use std::path::Path;
+
+/// Settings of the builder.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BuildParams {
+    /// Target samples per node (M).
+    pub node_points: usize,
+    /// Samples processed in memory at once (bounds memory).
+    pub chunk_points: usize,
+    /// Neighbours for normal and spacing estimation.
+    pub knn: usize,
+    /// Splat radius = `radius_factor` × local spacing.
+    pub radius_factor: f32,
+    /// Cosine of the largest angle between normals of samples that may be merged.
+    pub merge_normal_cos: f32,
+    /// Reservoir size for choosing the top-level splits.
+    pub sample_size: usize,
+    /// Seed of every random choice (builds are reproducible).
+    pub seed: u64,
+}
+
+impl Default for BuildParams {
+    fn default() -> Self {
+        Self {
+            node_points: 8192,
+            chunk_points: 4_000_000,
+            knn: 12,
+            radius_factor: 0.8,
+            merge_normal_cos: 0.5,
+            sample_size: 1_000_000,
+            seed: 0x15_0c_a3,
+        }
+    }
+}
+
+/// Why a build failed.
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    /// File system failure.
+    #[error("I/O error: {0}")]
+    Io(#[from] std::io::Error),
+    /// The input cannot make a model.
+    #[error("{0}")]
+    Degenerate(String),
+    /// Invalid settings.
+    #[error("invalid build settings: {0}")]
+    Params(String),
+}
+
+/// What a build produced.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BuildSummary {
+    /// Samples pushed.
+    pub input_points: u64,
+    /// Distinct samples at full resolution.
+    pub leaf_points: u64,
+    /// Samples over all nodes.
+    pub total_points: u64,
+    /// Nodes.
+    pub nodes: u64,
+    /// Levels.
+    pub levels: u32,
+    /// Bytes of the store.
+    pub bytes: u64,
+    /// Regions processed out of core (1: everything fitted in memory).
+    pub chunks: usize,
+}
+
+/// Progress of a build, for a progress bar.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// Distributing spilled samples to regions: (done, total samples).
+    Distribute(u64, u64),
+    /// Building nodes: (samples done, total samples).
+    Build(u64, u64),
+}
+
+/// A sample as spilled to disk.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct RawRec {
+    pos: [f64; 3],
+    normal: [f32; 3],
+    color: [u8; 4],
+}
+
+impl From<InputPoint> for RawRec {
+    fn from(p: InputPoint) -> Self {
+        Self { pos: p.pos.to_array(), normal: p.normal.to_array(), color: p.color }
+    }
+}
+
+/// A sample being processed, in local coordinates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Work {
+    pos: Vec3,
+    normal: Vec3,
+    radius: f32,
+    color: [u8; 4],
+}
+
+impl boxtree::HasPosition for Work {
+    #[inline]
+    fn position(&self) -> Vec3 {
+        self.pos
+    }
+}
+
+enum Spill {
+    Memory(Vec<RawRec>),
+    Disk { file: BufWriter<tempfile::NamedTempFile> },
+}
+
+/// The builder.
+pub struct Builder {
+    params: BuildParams,
+    spill: Spill,
+    count: u64,
+    min: DVec3,
+    max: DVec3,
+    reservoir: Vec<DVec3>,
+    rng: rand_pcg::Pcg64,
+    tmp_dir: std::path::PathBuf,
+}
+
+impl Builder {
+    /// A builder that spills to `tmp_dir` when needed.
+    pub fn new(params: BuildParams, tmp_dir: &Path) -> Result<Self, BuildError> {
+        if params.node_points < 16 || params.chunk_points < 4 * params.node_points {
+            return Err(BuildError::Params(format!(
+                "node_points must be ≥ 16 and chunk_points ≥ 4 × node_points (got {} and {})",
+                params.node_points, params.chunk_points
+            )));
+        }
+        Ok(Self {
+            params,
+            spill: Spill::Memory(Vec::new()),
+            count: 0,
+            min: DVec3::INFINITY,
+            max: DVec3::NEG_INFINITY,
+            reservoir: Vec::new(),
+            rng: rand_pcg::Pcg64::seed_from_u64(params.seed),
+            tmp_dir: tmp_dir.to_path_buf(),
+        })
+    }
+
+    /// Adds a sample (its position must be finite; the readers guarantee it).
+    pub fn push(&mut self, p: InputPoint) -> Result<(), BuildError> {
+        if !p.pos.is_finite() {
+            return Err(BuildError::Degenerate(format!(
+                "sample {} has a non-finite position",
+                self.count + 1
+            )));
+        }
+        self.count += 1;
+        self.min = self.min.min(p.pos);
+        self.max = self.max.max(p.pos);
+        if self.reservoir.len() < self.params.sample_size {
+            self.reservoir.push(p.pos);
+        } else {
+            let j = self.rng.random_range(0..self.count);
+            if (j as usize) < self.params.sample_size {
+                self.reservoir[j as usize] = p.pos;
+            }
+        }
+        match &mut self.spill {
+            Spill::Memory(v) => {
+                v.push(p.into());
+                if v.len() > self.params.chunk_points {
+                    let tmp = tempfile::NamedTempFile::new_in(&self.tmp_dir)?;
+                    let mut file = BufWriter::with_capacity(1 << 20, tmp);
+                    file.write_all(bytemuck::cast_slice(v))?;
+                    self.spill = Spill::Disk { file };
+                }
+            }
+            Spill::Disk { file } => file.write_all(bytemuck::bytes_of(&RawRec::from(p)))?,
+        }
+        Ok(())
+    }
+
+    /// Samples pushed so far.
+    pub fn count(&self) -> u64 {
+        self.count
+    }
+
+    /// Builds the hierarchy and writes the store to `out`.
+    pub fn finish(self, out: &Path, progress: &mut dyn FnMut(Stage)) -> Result<BuildSummary, BuildError> {
+        if self.count == 0 {
+            return Err(BuildError::Degenerate("the model has no samples".into()));
+        }
+        let origin = (self.min + self.max) * 0.5;
+        let params = self.params;
+        let mut writer = StoreWriter::create(out)?;
+        let mut ctx =
+            Ctx { params, writer: &mut writer, done: 0, total: self.count, progress, rng: self.rng.clone() };
+        let (root, chunks) = match self.spill {
+            Spill::Memory(v) => {
+                let root = ctx.region(&v, origin)?;
+                (root, 1)
+            }
+            Spill::Disk { file } => {
+                let tmp = file.into_inner().map_err(|e| e.into_error())?;
+                let top = TopTree::build(&self.reservoir, self.count, params.chunk_points / 2);
+                let chunks = top.leaves();
+                let files = distribute(tmp.path(), &top, self.count, &self.tmp_dir, ctx.progress)?;
+                (
+                    ctx.top(&top, 0, &files, origin)?
+                        .ok_or_else(|| BuildError::Degenerate("no samples reached any region".into()))?,
+                    chunks,
+                )
+            }
+        };
+        let root = root.id;
+        let levels = writer.node(root).height + 1;
+        let nodes = u64::from(root) + 1;
+        let (leaf, total) = (writer_counts(&writer, root), 0);
+        let _ = total;
+        let bytes = writer.finish(origin.to_array(), self.count, params.node_points as u32)?;
+        Ok(BuildSummary {
+            input_points: self.count,
+            leaf_points: leaf.0,
+            total_points: leaf.1,
+            nodes,
+            levels,
+            bytes,
+            chunks,
+        })
+    }
+}
+
+fn writer_counts(w: &StoreWriter, root: u32) -> (u64, u64) {
+    let (mut leaf, mut total) = (0, 0);
+    for id in 0..=root {
+        let n = w.node(id);
+        total += u64::from(n.point_count);
+        if n.is_leaf() {
+            leaf += u64::from(n.point_count);
+        }
+    }
+    (leaf, total)
+}
+
+/// The top of the kd-tree, chosen on the reservoir sample.
+enum TopTree {
+    Leaf(usize),
+    Split { axis: usize, at: f64, children: Box<[TopTree; 2]> },
+}
+
+impl TopTree {
+    fn build(sample: &[DVec3], total: u64, max_expected: usize) -> Self {
+        let mut s = sample.to_vec();
+        let mut next = 0;
+        Self::rec(&mut s, total as f64 / sample.len().max(1) as f64, max_expected as f64, &mut next)
+    }
+
+    fn rec(s: &mut [DVec3], scale: f64, max_expected: f64, next: &mut usize) -> Self {
+        if (s.len() as f64) * scale <= max_expected || s.len() < 2 {
+            *next += 1;
+            return Self::Leaf(*next - 1);
+        }
+        let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+        for p in s.iter() {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        let axis = (hi - lo).max_position();
+        let mid = s.len() / 2;
+        s.select_nth_unstable_by(mid, |a, b| a[axis].total_cmp(&b[axis]));
+        let at = s[mid][axis];
+        let (l, r) = s.split_at_mut(mid);
+        let left = Self::rec(l, scale, max_expected, next);
+        let right = Self::rec(r, scale, max_expected, next);
+        Self::Split { axis, at, children: Box::new([left, right]) }
+    }
+
+    fn leaves(&self) -> usize {
+        match self {
+            Self::Leaf(i) => i + 1,
+            Self::Split { children, .. } => children[1].leaves(),
+        }
+    }
+
+    fn locate(&self, p: DVec3) -> usize {
+        match self {
+            Self::Leaf(i) => *i,
+            Self::Split { axis, at, children } => children[usize::from(p[*axis] >= *at)].locate(p),
+        }
+    }
+}
+
+fn distribute(
+    spill: &Path,
+    top: &TopTree,
+    total: u64,
+    tmp_dir: &Path,
+    progress: &mut dyn FnMut(Stage),
+) -> Result<Vec<tempfile::NamedTempFile>, BuildError> {
+    let n = top.leaves();
+    let mut outs = Vec::with_capacity(n);
+    for _ in 0..n {
+        outs.push(BufWriter::with_capacity(1 << 18, tempfile::NamedTempFile::new_in(tmp_dir)?));
+    }
+    let mut r = BufReader::with_capacity(1 << 20, File::open(spill)?);
+    let mut buf = vec![RawRec::zeroed(); 1 << 16];
+    let mut done = 0u64;
+    loop {
+        let bytes: &mut [u8] = bytemuck::cast_slice_mut(&mut buf);
+        let got = read_full(&mut r, bytes)?;
+        if got == 0 {
+            break;
+        }
+        let recs = &buf[..got / std::mem::size_of::<RawRec>()];
+        for rec in recs {
+            outs[top.locate(DVec3::from_array(rec.pos))].write_all(bytemuck::bytes_of(rec))?;
+        }
+        done += recs.len() as u64;
+        progress(Stage::Distribute(done, total));
+    }
+    outs.into_iter().map(|w| w.into_inner().map_err(|e| BuildError::Io(e.into_error()))).collect()
+}
+
+fn read_full(r: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut n = 0;
+    while n < buf.len() {
+        match r.read(&mut buf[n..])? {
+            0 => break,
+            k => n += k,
+        }
+    }
+    Ok(n)
+}
+
+/// A finished subtree: its root id and the root's samples (for simplification into the parent).
+struct Sub {
+    id: u32,
+    samples: Vec<Work>,
+    spacing: f32,
+}
+
+struct Ctx<'a> {
+    params: BuildParams,
+    writer: &'a mut StoreWriter,
+    done: u64,
+    total: u64,
+    progress: &'a mut dyn FnMut(Stage),
+    rng: rand_pcg::Pcg64,
+}
+
+impl Ctx<'_> {
+    fn top(
+        &mut self,
+        t: &TopTree,
+        _depth: usize,
+        files: &[tempfile::NamedTempFile],
+        origin: DVec3,
+    ) -> Result<Option<Sub>, BuildError> {
+        match t {
+            TopTree::Leaf(i) => {
+                let mut bytes = Vec::new();
+                File::open(files[*i].path())?.read_to_end(&mut bytes)?;
+                if bytes.is_empty() {
+                    return Ok(None);
+                }
+                let mut recs = vec![RawRec::zeroed(); bytes.len() / std::mem::size_of::<RawRec>()];
+                bytemuck::cast_slice_mut::<RawRec, u8>(&mut recs).copy_from_slice(&bytes);
+                drop(bytes);
+                self.region(&recs, origin).map(Some)
+            }
+            TopTree::Split { children, .. } => {
+                let l = self.top(&children[0], _depth + 1, files, origin)?;
+                let r = self.top(&children[1], _depth + 1, files, origin)?;
+                match (l, r) {
+                    (Some(a), Some(b)) => self.join(a, b).map(Some),
+                    (a, b) => Ok(a.or(b)),
+                }
+            }
+        }
+    }
+
+    /// Processes one in-memory region into a subtree.
+    fn region(&mut self, recs: &[RawRec], origin: DVec3) -> Result<Sub, BuildError> {
+        let n_in = recs.len() as u64;
+        let mut pts: Vec<(Vec3, Vec3, [u8; 4])> = recs
+            .iter()
+            .map(|r| ((DVec3::from_array(r.pos) - origin).as_vec3(), Vec3::from_array(r.normal), r.color))
+            .collect();
+        // Merge duplicates (identical stored positions): average their normals and colours.
+        pts.par_sort_unstable_by(|a, b| {
+            a.0.x.total_cmp(&b.0.x).then(a.0.y.total_cmp(&b.0.y)).then(a.0.z.total_cmp(&b.0.z))
+        });
+        let mut merged: Vec<(Vec3, Vec3, [u8; 4])> = Vec::with_capacity(pts.len());
+        let mut i = 0;
+        while i < pts.len() {
+            let mut j = i + 1;
+            while j < pts.len() && pts[j].0 == pts[i].0 {
+                j += 1;
+            }
+            if j - i == 1 {
+                merged.push(pts[i]);
+            } else {
+                let nrm = pts[i..j].iter().fold(Vec3::ZERO, |a, p| a + p.1).normalize_or_zero();
+                let mut c = [0u32; 4];
+                for p in &pts[i..j] {
+                    for (acc, v) in c.iter_mut().zip(p.2) {
+                        *acc += u32::from(v);
+                    }
+                }
+                let n = (j - i) as u32;
+                merged.push((pts[i].0, nrm, c.map(|x| (x / n) as u8)));
+            }
+            i = j;
+        }
+        drop(pts);
+        let mut positions: Vec<Vec3> = merged.iter().map(|p| p.0).collect();
+        if positions.len() < 2 {
+            return Err(BuildError::Degenerate(format!(
+                "all {n_in} samples are at the same position: a model needs at least 2 distinct points"
+            )));
+        }
+        // Estimate on a spatially sorted copy, then map back by sorting `merged` the same way.
+        let mut order: Vec<u32> = (0..positions.len() as u32).collect();
+        {
+            let mut keyed: Vec<(Vec3, u32)> = positions.iter().copied().zip(order.iter().copied()).collect();
+            sort_keyed(&mut keyed);
+            for (k, (p, o)) in keyed.into_iter().enumerate() {
+                positions[k] = p;
+                order[k] = o;
+            }
+        }
+        let boxes = boxtree::build_boxes(&positions);
+        let est = estimate::estimate(&positions, &boxes, self.params.knn)
+            .ok_or_else(|| BuildError::Degenerate("fewer than 2 distinct points".into()))?;
+        drop(boxes);
+        let mut work: Vec<Work> = Vec::with_capacity(positions.len());
+        let mut spacing2 = Vec::with_capacity(positions.len());
+        for (k, &o) in order.iter().enumerate() {
+            let (pos, nrm, color) = merged[o as usize];
+            let Estimate { normal, spacing } = est[k];
+            let n = if nrm == Vec3::ZERO { normal } else { nrm };
+            // A lone point far from the rest still gets a finite, positive radius.
+            let h = if spacing > 0.0 && spacing.is_finite() { spacing } else { f32::MIN_POSITIVE };
+            spacing2.push(h * h);
+            work.push(Work { pos, normal: n, radius: self.params.radius_factor * h, color });
+        }
+        drop(merged);
+        let mut h2 = spacing2;
+        self.split(&mut work, &mut h2)
+    }
+
+    /// Splits until leaves hold at most M samples; returns the subtree.
+    fn split(&mut self, work: &mut [Work], h2: &mut [f32]) -> Result<Sub, BuildError> {
+        let m = self.params.node_points;
+        if work.len() <= m {
+            let spacing = (h2.iter().map(|&x| f64::from(x)).sum::<f64>() / h2.len() as f64).sqrt() as f32;
+            let id = self.write(work.to_vec(), None, spacing)?;
+            self.done += work.len() as u64;
+            (self.progress)(Stage::Build(self.done, self.total));
+            return Ok(Sub { id: id.0, samples: id.1, spacing });
+        }
+        let axis = choose_axis(work);
+        let mid = work.len() / 2;
+        // Partition work and spacings together.
+        let mut idx: Vec<u32> = (0..work.len() as u32).collect();
+        idx.select_nth_unstable_by(mid, |&a, &b| {
+            work[a as usize].pos[axis].total_cmp(&work[b as usize].pos[axis])
+        });
+        let w2: Vec<Work> = idx.iter().map(|&i| work[i as usize]).collect();
+        let s2: Vec<f32> = idx.iter().map(|&i| h2[i as usize]).collect();
+        work.copy_from_slice(&w2);
+        h2.copy_from_slice(&s2);
+        drop((w2, s2, idx));
+        let (wl, wr) = work.split_at_mut(mid);
+        let (hl, hr) = h2.split_at_mut(mid);
+        let l = self.split(wl, hl)?;
+        let r = self.split(wr, hr)?;
+        self.join(l, r)
+    }
+
+    /// Makes the parent of two subtrees by simplifying the union of their samples.
+    fn join(&mut self, a: Sub, b: Sub) -> Result<Sub, BuildError> {
+        let na = a.samples.len() as f64;
+        let nb = b.samples.len() as f64;
+        let area = na * f64::from(a.spacing).powi(2) + nb * f64::from(b.spacing).powi(2);
+        let mut all = a.samples;
+        all.extend(b.samples);
+        let simplified = simplify(all, self.params.node_points, self.params.merge_normal_cos, &mut self.rng);
+        let spacing = (area / simplified.len() as f64).sqrt() as f32;
+        let (id, samples) = self.write(simplified, Some([a.id, b.id]), spacing)?;
+        Ok(Sub { id, samples, spacing })
+    }
+
+    fn write(
+        &mut self,
+        mut w: Vec<Work>,
+        children: Option<[u32; 2]>,
+        spacing: f32,
+    ) -> Result<(u32, Vec<Work>), BuildError> {
+        boxtree::sort_spatially(&mut w);
+        let boxes = boxtree::build_boxes(&w);
+        let splats: Vec<Splat> = w.iter().map(|s| Splat::new(s.pos, s.normal, s.radius, s.color)).collect();
+        let id = self.writer.add_node(&splats, &boxes, children, NodeStats { spacing })?;
+        // The parent is built from the stored (quantised-normal) samples, as balsa12 §4 advises.
+        let stored = splats
+            .iter()
+            .map(|s| Work { pos: s.position(), normal: s.normal(), radius: s.radius, color: s.color })
+            .collect();
+        Ok((id, stored))
+    }
+}
+
+fn sort_keyed(v: &mut [(Vec3, u32)]) {
+    struct K(Vec3, u32);
+    impl boxtree::HasPosition for K {
+        fn position(&self) -> Vec3 {
+            self.0
+        }
+    }
+    let mut k: Vec<K> = v.iter().map(|&(p, i)| K(p, i)).collect();
+    boxtree::sort_spatially(&mut k);
+    for (dst, src) in v.iter_mut().zip(k) {
+        *dst = (src.0, src.1);
+    }
+}
+
+/// Split axis (balsa12 §4): candidates are median splits (perfectly balanced) along every axis
+/// whose extent is at least half the longest; among them, the one whose children are the most
+/// compact (smallest worst ratio between the two largest extents of a child's box).
+fn choose_axis(work: &[Work]) -> usize {
+    let bbox = Aabb::from_points(work.iter().map(|w| w.pos));
+    let ext = bbox.extent();
+    let longest = ext.max_element();
+    let mut best = (f32::INFINITY, ext.max_position());
+    if work.len() > 200_000 {
+        // Large regions: the longest axis (evaluating candidates would cost a sort per axis).
+        return best.1;
+    }
+    for axis in 0..3 {
+        if ext[axis] < 0.5 * longest || ext[axis] <= 0.0 {
+            continue;
+        }
+        let mut vals: Vec<f32> = work.iter().map(|w| w.pos[axis]).collect();
+        let mid = vals.len() / 2;
+        let (_, &mut at, _) = vals.select_nth_unstable_by(mid, f32::total_cmp);
+        let mut worst: f32 = 0.0;
+        for side in [false, true] {
+            let b = Aabb::from_points(work.iter().filter(|w| (w.pos[axis] >= at) == side).map(|w| w.pos));
+            let mut e = b.extent().to_array();
+            e.sort_by(f32::total_cmp);
+            let ratio = if e[1] > 0.0 { e[2] / e[1] } else { f32::INFINITY };
+            worst = worst.max(ratio);
+        }
+        if worst < best.0 {
+            best = (worst, axis);
+        }
+    }
+    best.1
+}
+
+/// Reduces `pts` to `target` samples by collapsing nearest pairs with compatible normals
+/// (bettio09 §3: shortest edges first). Each pass finds every sample's nearest compatible
+/// neighbour, then collapses edges shortest first, each sample at most once per pass.
+/// Merged sample: midpoint; normal and colour weighted by splat area; radius covering both.
+fn simplify(mut pts: Vec<Work>, target: usize, normal_cos: f32, _rng: &mut rand_pcg::Pcg64) -> Vec<Work> {
+    let mut require_compatible = true;
+    while pts.len() > target {
+        boxtree::sort_spatially(&mut pts);
+        let boxes = boxtree::build_boxes(&pts);
+        let tree = BoxTree::new(&pts, &boxes);
+        let mut edges: Vec<(f32, u32, u32)> = pts
+            .par_iter()
+            .enumerate()
+            .filter_map(|(i, p)| {
+                let mut best = KBest::new(6);
+                tree.knn(p.pos, u32::MAX, &mut best, &|j| j);
+                best.items()
+                    .iter()
+                    .find(|&&(_, j)| {
+                        j as usize != i
+                            && (!require_compatible || pts[j as usize].normal.dot(p.normal) >= normal_cos)
+                    })
+                    .map(|&(d2, j)| (d2, i as u32, j))
+            })
+            .collect();
+        edges.par_sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        let mut used = vec![false; pts.len()];
+        let mut needed = pts.len() - target;
+        let mut out = Vec::with_capacity(pts.len());
+        for &(_, i, j) in &edges {
+            if needed == 0 {
+                break;
+            }
+            let (i, j) = (i as usize, j as usize);
+            if used[i] || used[j] {
+                continue;
+            }
+            used[i] = true;
+            used[j] = true;
+            out.push(merge(&pts[i], &pts[j]));
+            needed -= 1;
+        }
+        if out.is_empty() {
+            if !require_compatible {
+                // Cannot happen with ≥ 2 points, but never loop forever.
+                break;
+            }
+            require_compatible = false;
+            continue;
+        }
+        out.extend(pts.iter().zip(&used).filter(|(_, u)| !**u).map(|(p, _)| *p));
+        pts = out;
+    }
+    pts
+}
+
+fn merge(a: &Work, b: &Work) -> Work {
+    let (wa, wb) = (a.radius * a.radius, b.radius * b.radius);
+    let ws = (wa + wb).max(f32::MIN_POSITIVE);
+    let normal = (a.normal * wa + b.normal * wb).try_normalize().unwrap_or(a.normal);
+    let color = std::array::from_fn(|k| {
+        ((f32::from(a.color[k]) * wa + f32::from(b.color[k]) * wb) / ws).round().clamp(0.0, 255.0) as u8
+    });
+    Work {
+        pos: (a.pos + b.pos) * 0.5,
+        normal,
+        radius: (a.pos - b.pos).length() * 0.5 + a.radius.max(b.radius),
+        color,
+    }
+}

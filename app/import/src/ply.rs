@@ -1,0 +1,470 @@
+//! A streaming PLY reader: ASCII, binary little and big endian, every scalar type spelling, lists
+//! with any count type, any elements and properties (unknown ones are read and skipped).
+//!
+//! Errors name the line (header and ASCII bodies) or the element row (binary bodies). Tolerated
+//! quirks are reported as warnings: header lines without a keyword, trailing whitespace, extra
+//! rows after the last element.
+
+use std::io::BufRead;
+
+/// Scalar types of PLY, with both the classic and the sized spellings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scalar {
+    /// char / int8
+    I8,
+    /// uchar / uint8
+    U8,
+    /// short / int16
+    I16,
+    /// ushort / uint16
+    U16,
+    /// int / int32
+    I32,
+    /// uint / uint32
+    U32,
+    /// float / float32
+    F32,
+    /// double / float64
+    F64,
+}
+
+impl Scalar {
+    fn parse(s: &str) -> Option<Self> {
+        Some(match s {
+            "char" | "int8" => Self::I8,
+            "uchar" | "uint8" => Self::U8,
+            "short" | "int16" => Self::I16,
+            "ushort" | "uint16" => Self::U16,
+            "int" | "int32" => Self::I32,
+            "uint" | "uint32" => Self::U32,
+            "float" | "float32" => Self::F32,
+            "double" | "float64" => Self::F64,
+            _ => return None,
+        })
+    }
+
+    /// Size in bytes in binary bodies.
+    pub fn size(self) -> usize {
+        match self {
+            Self::I8 | Self::U8 => 1,
+            Self::I16 | Self::U16 => 2,
+            Self::I32 | Self::U32 | Self::F32 => 4,
+            Self::F64 => 8,
+        }
+    }
+
+    fn range(self) -> Option<(f64, f64)> {
+        Some(match self {
+            Self::I8 => (-128.0, 127.0),
+            Self::U8 => (0.0, 255.0),
+            Self::I16 => (-32768.0, 32767.0),
+            Self::U16 => (0.0, 65535.0),
+            Self::I32 => (-2_147_483_648.0, 2_147_483_647.0),
+            Self::U32 => (0.0, 4_294_967_295.0),
+            Self::F32 | Self::F64 => return None,
+        })
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Self::I8 => "int8",
+            Self::U8 => "uint8",
+            Self::I16 => "int16",
+            Self::U16 => "uint16",
+            Self::I32 => "int32",
+            Self::U32 => "uint32",
+            Self::F32 => "float32",
+            Self::F64 => "float64",
+        }
+    }
+
+    fn decode(self, b: &[u8], big: bool) -> f64 {
+        macro_rules! rd {
+            ($t:ty, $n:expr) => {{
+                let mut a = [0u8; $n];
+                a.copy_from_slice(&b[..$n]);
+                f64::from(if big { <$t>::from_be_bytes(a) } else { <$t>::from_le_bytes(a) })
+            }};
+        }
+        match self {
+            Self::I8 => f64::from(b[0] as i8),
+            Self::U8 => f64::from(b[0]),
+            Self::I16 => rd!(i16, 2),
+            Self::U16 => rd!(u16, 2),
+            Self::I32 => rd!(i32, 4),
+            Self::U32 => rd!(u32, 4),
+            Self::F32 => rd!(f32, 4),
+            Self::F64 => rd!(f64, 8),
+        }
+    }
+}
+
+/// The type of a property.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PropKind {
+    /// One value.
+    Scalar(Scalar),
+    /// A count followed by that many items.
+    List {
+        /// Type of the count.
+        count: Scalar,
+        /// Type of the items.
+        item: Scalar,
+    },
+}
+
+/// A declared property.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Property {
+    /// Its name.
+    pub name: String,
+    /// Its type.
+    pub kind: PropKind,
+}
+
+/// A declared element.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Element {
+    /// Its name ("vertex", "face", …).
+    pub name: String,
+    /// Number of rows.
+    pub count: u64,
+    /// Its properties, in order.
+    pub props: Vec<Property>,
+}
+
+impl Element {
+    /// Index of a property by name.
+    pub fn prop(&self, name: &str) -> Option<usize> {
+        self.props.iter().position(|p| p.name == name)
+    }
+}
+
+/// Body encoding.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// Text.
+    Ascii,
+    /// Binary, little endian.
+    BinaryLe,
+    /// Binary, big endian.
+    BinaryBe,
+}
+
+/// A parsed header.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Header {
+    /// Body encoding.
+    pub format: Format,
+    /// Elements in body order.
+    pub elements: Vec<Element>,
+    /// Number of header lines (the body starts after them).
+    pub lines: usize,
+    /// Tolerated oddities.
+    pub warnings: Vec<String>,
+}
+
+/// Why a PLY file cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum PlyError {
+    /// Reading failed.
+    #[error("read error: {0}")]
+    Io(#[from] std::io::Error),
+    /// Problem in the header.
+    #[error("header line {line}: {msg}")]
+    Header {
+        /// 1-based line.
+        line: usize,
+        /// What is wrong.
+        msg: String,
+    },
+    /// Problem in a body row.
+    #[error("element '{element}' row {row}{}: {msg}", .line.map(|l| format!(" (line {l})")).unwrap_or_default())]
+    Row {
+        /// Element name.
+        element: String,
+        /// 1-based row within the element.
+        row: u64,
+        /// 1-based file line (ASCII bodies).
+        line: Option<usize>,
+        /// What is wrong.
+        msg: String,
+    },
+}
+
+fn herr(line: usize, msg: impl Into<String>) -> PlyError {
+    PlyError::Header { line, msg: msg.into() }
+}
+
+/// Reads the header, leaving `r` at the first byte of the body.
+pub fn read_header(r: &mut (impl BufRead + ?Sized)) -> Result<Header, PlyError> {
+    let mut buf = Vec::new();
+    let mut line_no = 0usize;
+    let mut format = None;
+    let mut elements: Vec<Element> = Vec::new();
+    let mut warnings = Vec::new();
+    const MAX_HEADER_LINE: usize = 64 * 1024;
+    loop {
+        buf.clear();
+        let n = std::io::Read::take(&mut *r, MAX_HEADER_LINE as u64).read_until(b'\n', &mut buf)?;
+        line_no += 1;
+        if n == 0 {
+            return Err(if line_no == 1 {
+                herr(1, "empty file: missing the 'ply' magic line")
+            } else {
+                herr(line_no, "unexpected end of file: the header has no 'end_header'")
+            });
+        }
+        if buf.len() >= MAX_HEADER_LINE {
+            return Err(herr(line_no, "header line longer than 64 KiB (binary data in the header?)"));
+        }
+        if buf.contains(&0) {
+            return Err(herr(line_no, "NUL byte in the header (binary data before 'end_header')"));
+        }
+        let text =
+            std::str::from_utf8(&buf).map_err(|_| herr(line_no, "header is not text (invalid UTF-8)"))?;
+        let trimmed = text.trim();
+        if line_no == 1 {
+            if trimmed != "ply" {
+                return Err(herr(1, format!("missing the 'ply' magic line (found {:?})", short(trimmed))));
+            }
+            continue;
+        }
+        let mut tok = trimmed.split_whitespace();
+        let Some(key) = tok.next() else { continue };
+        match key {
+            "format" => {
+                let f = match tok.next() {
+                    Some("ascii") => Format::Ascii,
+                    Some("binary_little_endian") => Format::BinaryLe,
+                    Some("binary_big_endian") => Format::BinaryBe,
+                    other => return Err(herr(line_no, format!("unknown format {other:?}"))),
+                };
+                if let Some(v) = tok.next()
+                    && v != "1.0"
+                {
+                    warnings.push(format!("header line {line_no}: format version {v}, read as 1.0"));
+                }
+                format = Some(f);
+            }
+            "comment" | "obj_info" => {}
+            "element" => {
+                let name = tok.next().ok_or_else(|| herr(line_no, "element without a name"))?;
+                let count = tok
+                    .next()
+                    .and_then(|c| c.parse::<u64>().ok())
+                    .ok_or_else(|| herr(line_no, format!("element '{name}' has no valid row count")))?;
+                elements.push(Element { name: name.to_string(), count, props: Vec::new() });
+            }
+            "property" => {
+                let el = elements.last_mut().ok_or_else(|| herr(line_no, "property before any element"))?;
+                let t = tok.next().ok_or_else(|| herr(line_no, "property without a type"))?;
+                let ty = |s: Option<&str>| -> Result<Scalar, PlyError> {
+                    let s = s.ok_or_else(|| herr(line_no, "property type missing"))?;
+                    Scalar::parse(s).ok_or_else(|| herr(line_no, format!("unknown property type '{s}'")))
+                };
+                let kind = if t == "list" {
+                    let count = ty(tok.next())?;
+                    if matches!(count, Scalar::F32 | Scalar::F64) {
+                        return Err(herr(line_no, "list count type must be an integer"));
+                    }
+                    PropKind::List { count, item: ty(tok.next())? }
+                } else {
+                    PropKind::Scalar(ty(Some(t))?)
+                };
+                let name = tok.next().ok_or_else(|| herr(line_no, "property without a name"))?;
+                el.props.push(Property { name: name.to_string(), kind });
+            }
+            "end_header" => break,
+            other => {
+                warnings.push(format!("header line {line_no}: unknown keyword '{}' ignored", short(other)))
+            }
+        }
+    }
+    let format = format.ok_or_else(|| herr(line_no, "the header has no 'format' line"))?;
+    Ok(Header { format, elements, lines: line_no, warnings })
+}
+
+fn short(s: &str) -> String {
+    s.chars().take(40).collect()
+}
+
+/// One decoded row: scalar properties as `f64` (NaN for lists) and list items.
+#[derive(Debug, Default)]
+pub struct Row {
+    /// Value of each scalar property, by property index.
+    pub values: Vec<f64>,
+    /// Items of each list property, by property index (empty for scalars).
+    pub lists: Vec<Vec<f64>>,
+}
+
+/// Reads every element of the body, calling `visit(element index, row index, row)` for each row.
+/// Returns warnings about tolerated oddities.
+pub fn read_body(
+    r: &mut (impl BufRead + ?Sized),
+    header: &Header,
+    mut visit: impl FnMut(usize, u64, &Row) -> Result<(), PlyError>,
+) -> Result<Vec<String>, PlyError> {
+    let mut warnings = Vec::new();
+    let mut row = Row::default();
+    let mut line_no = header.lines;
+    let mut line = String::new();
+    let mut bytes = Vec::new();
+    for (ei, el) in header.elements.iter().enumerate() {
+        row.values.clear();
+        row.values.resize(el.props.len(), f64::NAN);
+        row.lists.resize_with(el.props.len(), Vec::new);
+        for ri in 0..el.count {
+            let rerr = |line: Option<usize>, msg: String| PlyError::Row {
+                element: el.name.clone(),
+                row: ri + 1,
+                line,
+                msg,
+            };
+            match header.format {
+                Format::Ascii => {
+                    // Skip blank lines.
+                    loop {
+                        line.clear();
+                        let n = r.read_line(&mut line).map_err(|e| match e.kind() {
+                            std::io::ErrorKind::InvalidData => {
+                                rerr(Some(line_no + 1), "line is not valid UTF-8 text".into())
+                            }
+                            _ => PlyError::Io(e),
+                        })?;
+                        line_no += 1;
+                        if n == 0 {
+                            return Err(rerr(
+                                None,
+                                format!("unexpected end of file: {} of {} rows present", ri, el.count),
+                            ));
+                        }
+                        if !line.trim().is_empty() {
+                            break;
+                        }
+                    }
+                    parse_ascii_row(&line, el, &mut row).map_err(|m| rerr(Some(line_no), m))?;
+                }
+                Format::BinaryLe | Format::BinaryBe => {
+                    let big = header.format == Format::BinaryBe;
+                    read_binary_row(r, el, big, &mut row, &mut bytes).map_err(|e| match e {
+                        BinErr::Eof => {
+                            rerr(None, format!("unexpected end of file: {} of {} rows present", ri, el.count))
+                        }
+                        BinErr::Io(e) => PlyError::Io(e),
+                    })?;
+                }
+            }
+            visit(ei, ri, &row).map_err(|e| match e {
+                PlyError::Row { element, row, line: None, msg } if header.format == Format::Ascii => {
+                    PlyError::Row { element, row, line: Some(line_no), msg }
+                }
+                other => other,
+            })?;
+        }
+    }
+    // Anything after the last element?
+    if header.format == Format::Ascii {
+        let mut extra = 0usize;
+        loop {
+            line.clear();
+            match r.read_line(&mut line) {
+                Ok(0) | Err(_) => break,
+                Ok(_) if line.trim().is_empty() => {}
+                Ok(_) => extra += 1,
+            }
+        }
+        if extra > 0 {
+            warnings.push(format!("{extra} extra line(s) after the last element ignored"));
+        }
+    } else {
+        let mut rest = Vec::new();
+        let n = r.read_to_end(&mut rest)?;
+        if n > 0 {
+            warnings.push(format!("{n} extra byte(s) after the last element ignored"));
+        }
+    }
+    Ok(warnings)
+}
+
+fn parse_ascii_row(line: &str, el: &Element, row: &mut Row) -> Result<(), String> {
+    let mut tok = line.split_whitespace();
+    let mut next = |what: &str, ty: Scalar| -> Result<f64, String> {
+        let t = tok.next().ok_or_else(|| format!("missing value for property '{what}'"))?;
+        parse_value(t, ty).map_err(|m| format!("property '{what}': {m}"))
+    };
+    for (pi, p) in el.props.iter().enumerate() {
+        match p.kind {
+            PropKind::Scalar(t) => row.values[pi] = next(&p.name, t)?,
+            PropKind::List { count, item } => {
+                let n = next(&p.name, count)?;
+                if n < 0.0 {
+                    return Err(format!("property '{}': negative list length {n}", p.name));
+                }
+                let list = &mut row.lists[pi];
+                list.clear();
+                for _ in 0..n as u64 {
+                    list.push(next(&p.name, item)?);
+                }
+            }
+        }
+    }
+    if tok.next().is_some() {
+        return Err(format!("more values than the {} properties declared", el.props.len()));
+    }
+    Ok(())
+}
+
+fn parse_value(t: &str, ty: Scalar) -> Result<f64, String> {
+    match ty.range() {
+        Some((lo, hi)) => {
+            let v: i64 = t.parse().map_err(|_| format!("'{}' is not an integer", short(t)))?;
+            let v = v as f64;
+            if v < lo || v > hi {
+                return Err(format!("{v} out of range for {}", ty.name()));
+            }
+            Ok(v)
+        }
+        None => {
+            let v: f64 = t.parse().map_err(|_| format!("'{}' is not a number", short(t)))?;
+            Ok(if ty == Scalar::F32 { f64::from(v as f32) } else { v })
+        }
+    }
+}
+
+enum BinErr {
+    Eof,
+    Io(std::io::Error),
+}
+
+fn read_exact(r: &mut (impl BufRead + ?Sized), n: usize, buf: &mut Vec<u8>) -> Result<(), BinErr> {
+    buf.resize(n, 0);
+    r.read_exact(buf)
+        .map_err(|e| if e.kind() == std::io::ErrorKind::UnexpectedEof { BinErr::Eof } else { BinErr::Io(e) })
+}
+
+fn read_binary_row(
+    r: &mut (impl BufRead + ?Sized),
+    el: &Element,
+    big: bool,
+    row: &mut Row,
+    buf: &mut Vec<u8>,
+) -> Result<(), BinErr> {
+    for (pi, p) in el.props.iter().enumerate() {
+        match p.kind {
+            PropKind::Scalar(t) => {
+                read_exact(r, t.size(), buf)?;
+                row.values[pi] = t.decode(buf, big);
+            }
+            PropKind::List { count, item } => {
+                read_exact(r, count.size(), buf)?;
+                let n = count.decode(buf, big).max(0.0) as usize;
+                read_exact(r, n * item.size(), buf)?;
+                let list = &mut row.lists[pi];
+                list.clear();
+                list.extend(buf.chunks_exact(item.size()).map(|c| item.decode(c, big)));
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,447 @@
+//! Reading scans (PLY in every encoding, gzip-wrapped or not, and OBJ vertices) into a stream of
+//! [`InputPoint`]s for the builder.
+//!
+//! Faces are used where they help: area-weighted vertex normals for meshes whose vertices fit in
+//! memory (`face_vertex_limit`); larger meshes are streamed as point clouds and their normals are
+//! estimated by the builder. Non-finite coordinates are an error naming the row, or are dropped
+//! and counted with `drop_invalid`.
+
+use crate::ply::{self, PlyError, PropKind};
+use glam::{DVec3, Vec3};
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+
+/// One sample as read from a file.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InputPoint {
+    /// Position in the file's coordinates.
+    pub pos: DVec3,
+    /// Unit normal, or zero when unknown.
+    pub normal: Vec3,
+    /// sRGB colour with alpha 255, or all zero when the file has no colour.
+    pub color: [u8; 4],
+}
+
+/// Options of the readers.
+#[derive(Clone, Copy, Debug)]
+pub struct ReadOptions {
+    /// Drop samples with NaN/∞ coordinates (counted in a warning) instead of failing.
+    pub drop_invalid: bool,
+    /// Meshes with at most this many vertices get area-weighted normals from their faces.
+    pub face_vertex_limit: u64,
+}
+
+impl Default for ReadOptions {
+    fn default() -> Self {
+        Self { drop_invalid: false, face_vertex_limit: 8_000_000 }
+    }
+}
+
+/// Why a scan cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    /// The PLY reader failed.
+    #[error("{0}")]
+    Ply(#[from] PlyError),
+    /// I/O failure.
+    #[error("read error: {0}")]
+    Io(#[from] std::io::Error),
+    /// The file is readable but is not a usable point set.
+    #[error("{0}")]
+    Unusable(String),
+    /// A sample has a non-finite coordinate.
+    #[error("{element} row {row}{}: non-finite coordinate ({x}, {y}, {z}); use --drop-invalid to skip such samples", .line.map(|l| format!(" (line {l})")).unwrap_or_default())]
+    NonFinite {
+        /// Element ("vertex" or "v" for OBJ).
+        element: String,
+        /// 1-based row.
+        row: u64,
+        /// 1-based line when known.
+        line: Option<usize>,
+        /// Coordinates.
+        x: f64,
+        /// Coordinates.
+        y: f64,
+        /// Coordinates.
+        z: f64,
+    },
+    /// Rejected by the consumer of the points.
+    #[error("{0}")]
+    Sink(String),
+}
+
+/// What a read produced besides the points.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ReadReport {
+    /// Vertices read from the file (including dropped ones).
+    pub rows: u64,
+    /// Samples passed on.
+    pub points: u64,
+    /// Faces used for normals.
+    pub faces_used: u64,
+    /// Whether the file had normals.
+    pub has_normals: bool,
+    /// Whether the file had colours.
+    pub has_colors: bool,
+    /// Tolerated oddities.
+    pub warnings: Vec<String>,
+}
+
+/// The consumer of read points.
+pub type Sink<'a> = dyn FnMut(InputPoint) -> Result<(), String> + 'a;
+
+/// Opens a file, unwrapping gzip when its first bytes say so.
+pub fn open(path: &Path) -> std::io::Result<Box<dyn BufRead>> {
+    let mut f = BufReader::with_capacity(1 << 20, std::fs::File::open(path)?);
+    let gz = f.fill_buf()?.starts_with(&[0x1f, 0x8b]);
+    Ok(if gz {
+        Box::new(BufReader::with_capacity(1 << 20, flate2::bufread::MultiGzDecoder::new(f)))
+    } else {
+        Box::new(f)
+    })
+}
+
+/// Whether a file looks like OBJ (by extension, ignoring `.gz`).
+pub fn is_obj(path: &Path) -> bool {
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("").to_ascii_lowercase();
+    name.trim_end_matches(".gz").ends_with(".obj")
+}
+
+/// Reads a PLY or OBJ file (by extension; gzip detected by content).
+pub fn read_file(path: &Path, opts: &ReadOptions, sink: &mut Sink<'_>) -> Result<ReadReport, ReadError> {
+    let mut r = open(path)?;
+    if is_obj(path) { read_obj(&mut r, opts, sink) } else { read_ply(&mut r, opts, sink) }
+}
+
+/// Vertices buffered to apply face normals.
+#[derive(Default)]
+struct Buffered {
+    points: Vec<InputPoint>,
+    face_normals: Vec<DVec3>,
+    tris: Vec<[u32; 3]>,
+}
+
+impl Buffered {
+    /// Adds the area-weighted normal of every triangle of a polygon (fan) to its vertices.
+    fn add_polygon(&mut self, idx: &[f64], warn_bad: &mut u64) -> bool {
+        if idx.len() < 3 {
+            *warn_bad += 1;
+            return false;
+        }
+        for k in 1..idx.len() - 1 {
+            let t = [idx[0], idx[k], idx[k + 1]];
+            if t.iter().any(|&i| !(i >= 0.0 && i < u32::MAX as f64)) {
+                *warn_bad += 1;
+                return false;
+            }
+            self.tris.push(t.map(|i| i as u32));
+        }
+        true
+    }
+
+    fn finish(
+        mut self,
+        report: &mut ReadReport,
+        bad_faces: u64,
+        sink: &mut Sink<'_>,
+    ) -> Result<(), ReadError> {
+        let n = self.points.len();
+        let mut out_of_range = 0u64;
+        if !self.tris.is_empty() {
+            self.face_normals = vec![DVec3::ZERO; n];
+            for t in &self.tris {
+                if t.iter().any(|&i| i as usize >= n) {
+                    out_of_range += 1;
+                    continue;
+                }
+                let [a, b, c] = t.map(|i| self.points[i as usize].pos);
+                // Cross product length = 2 × area: area weighting for free.
+                let nrm = (b - a).cross(c - a);
+                for i in t {
+                    self.face_normals[*i as usize] += nrm;
+                }
+            }
+        }
+        if bad_faces + out_of_range > 0 {
+            report.warnings.push(format!(
+                "{} face(s) ignored (fewer than 3 vertices or indices out of range)",
+                bad_faces + out_of_range
+            ));
+        }
+        let has_face_normals = !self.face_normals.is_empty();
+        for (i, mut p) in self.points.into_iter().enumerate() {
+            if p.normal == Vec3::ZERO && has_face_normals {
+                p.normal = self.face_normals[i].try_normalize().map_or(Vec3::ZERO, |v| v.as_vec3());
+            }
+            sink(p).map_err(ReadError::Sink)?;
+            report.points += 1;
+        }
+        Ok(())
+    }
+}
+
+fn color_channel(v: f64, ty: ply::Scalar) -> u8 {
+    use ply::Scalar::*;
+    let x = match ty {
+        F32 | F64 => v * 255.0,
+        U16 | I16 => v / 257.0,
+        U32 | I32 => v / 16_843_009.0,
+        U8 | I8 => v,
+    };
+    if x.is_finite() { x.round().clamp(0.0, 255.0) as u8 } else { 0 }
+}
+
+/// Reads a PLY stream.
+pub fn read_ply(
+    r: &mut dyn BufRead,
+    opts: &ReadOptions,
+    sink: &mut Sink<'_>,
+) -> Result<ReadReport, ReadError> {
+    let header = ply::read_header(r)?;
+    let mut report = ReadReport { warnings: header.warnings.clone(), ..Default::default() };
+    let names: Vec<&str> = header.elements.iter().map(|e| e.name.as_str()).collect();
+    let vi = header.elements.iter().position(|e| e.name == "vertex").ok_or_else(|| {
+        ReadError::Unusable(if names.is_empty() {
+            "no 'vertex' element: the file declares no elements".into()
+        } else {
+            format!("no 'vertex' element (elements: {})", names.join(", "))
+        })
+    })?;
+    let v = &header.elements[vi];
+    let scalar = |name: &str| {
+        v.prop(name).and_then(|i| match v.props[i].kind {
+            PropKind::Scalar(t) => Some((i, t)),
+            PropKind::List { .. } => None,
+        })
+    };
+    let missing: Vec<&str> = ["x", "y", "z"].into_iter().filter(|n| scalar(n).is_none()).collect();
+    if !missing.is_empty() {
+        return Err(ReadError::Unusable(format!(
+            "element 'vertex' has no scalar propert{} {}: it holds no 3D positions",
+            if missing.len() == 1 { "y" } else { "ies" },
+            missing.join(", ")
+        )));
+    }
+    if v.count == 0 {
+        return Err(ReadError::Unusable("the file has 0 vertices".into()));
+    }
+    let pos_idx = ["x", "y", "z"].map(|n| scalar(n).map_or(0, |s| s.0));
+    let normal_idx = match ["nx", "ny", "nz"].map(scalar) {
+        [Some(a), Some(b), Some(c)] => Some([a.0, b.0, c.0]),
+        _ => None,
+    };
+    let color_idx = ["red", "green", "blue"]
+        .map(scalar)
+        .into_iter()
+        .collect::<Option<Vec<_>>>()
+        .or_else(|| ["diffuse_red", "diffuse_green", "diffuse_blue"].map(scalar).into_iter().collect());
+    let alpha_idx = scalar("alpha").or_else(|| scalar("diffuse_alpha"));
+    report.has_normals = normal_idx.is_some();
+    report.has_colors = color_idx.is_some();
+
+    let face = header.elements.iter().position(|e| e.name == "face").and_then(|fi| {
+        let f = &header.elements[fi];
+        let li = f.prop("vertex_indices").or_else(|| f.prop("vertex_index"))?;
+        matches!(f.props[li].kind, PropKind::List { .. }).then_some((fi, li))
+    });
+    let use_faces = face.is_some() && v.count <= opts.face_vertex_limit;
+    if face.is_some() && !use_faces {
+        report.warnings.push(format!(
+            "{} vertices exceed the face-normal limit ({}): faces ignored, normals estimated",
+            v.count, opts.face_vertex_limit
+        ));
+    }
+    let mut buffered = Buffered::default();
+    let mut bad_faces = 0u64;
+    let mut dropped = 0u64;
+    let mut sink_err = None;
+    let body_warnings = ply::read_body(r, &header, |ei, ri, row| {
+        if ei == vi {
+            report.rows += 1;
+            let [x, y, z] = pos_idx.map(|i| row.values[i]);
+            if !(x.is_finite() && y.is_finite() && z.is_finite()) {
+                if opts.drop_invalid {
+                    dropped += 1;
+                    return Ok(());
+                }
+                return Err(PlyError::Row {
+                    element: "vertex".into(),
+                    row: ri + 1,
+                    line: None,
+                    msg: format!(
+                        "non-finite coordinate ({x}, {y}, {z}); use --drop-invalid to skip such samples"
+                    ),
+                });
+            }
+            let normal = normal_idx
+                .map(|n| Vec3::new(row.values[n[0]] as f32, row.values[n[1]] as f32, row.values[n[2]] as f32))
+                .and_then(|n| n.is_finite().then_some(n))
+                .and_then(Vec3::try_normalize)
+                .unwrap_or(Vec3::ZERO);
+            let color = match &color_idx {
+                Some(c) => {
+                    let a = alpha_idx.map_or(255, |(i, t)| color_channel(row.values[i], t));
+                    [
+                        color_channel(row.values[c[0].0], c[0].1),
+                        color_channel(row.values[c[1].0], c[1].1),
+                        color_channel(row.values[c[2].0], c[2].1),
+                        a.max(1),
+                    ]
+                }
+                None => [0; 4],
+            };
+            let p = InputPoint { pos: DVec3::new(x, y, z), normal, color };
+            if use_faces {
+                buffered.points.push(p);
+            } else if sink_err.is_none() {
+                match sink(p) {
+                    Ok(()) => report.points += 1,
+                    Err(e) => sink_err = Some(e),
+                }
+            }
+        } else if let Some((fi, li)) = face
+            && ei == fi
+            && use_faces
+            && buffered.add_polygon(&row.lists[li], &mut bad_faces)
+        {
+            report.faces_used += 1;
+        }
+        Ok(())
+    });
+    let body_warnings = body_warnings?;
+    if let Some(e) = sink_err {
+        return Err(ReadError::Sink(e));
+    }
+    report.warnings.extend(body_warnings);
+    if dropped > 0 {
+        report.warnings.push(format!("{dropped} vertex row(s) with non-finite coordinates dropped"));
+    }
+    if use_faces {
+        buffered.finish(&mut report, bad_faces, sink)?;
+    }
+    Ok(report)
+}
+
+/// Reads an OBJ stream: `v x y z [r g b]` vertices and `f` faces (for normals). Other statements
+/// (`vn`, `vt`, groups, materials) are ignored.
+pub fn read_obj(
+    r: &mut dyn BufRead,
+    opts: &ReadOptions,
+    sink: &mut Sink<'_>,
+) -> Result<ReadReport, ReadError> {
+    let mut report = ReadReport::default();
+    let mut buffered = Buffered::default();
+    let mut bad_faces = 0u64;
+    let mut dropped = 0u64;
+    let mut line = String::new();
+    let mut line_no = 0usize;
+    let mut idx = Vec::new();
+    let unusable = |l: usize, m: String| ReadError::Unusable(format!("line {l}: {m}"));
+    loop {
+        line.clear();
+        if r.read_line(&mut line)? == 0 {
+            break;
+        }
+        line_no += 1;
+        let mut tok = line.split_whitespace();
+        match tok.next() {
+            Some("v") => {
+                report.rows += 1;
+                let vals: Vec<f64> = tok
+                    .map(|t| {
+                        t.parse::<f64>().map_err(|_| unusable(line_no, format!("'{t}' is not a number")))
+                    })
+                    .collect::<Result<_, _>>()?;
+                if vals.len() < 3 {
+                    return Err(unusable(line_no, "vertex with fewer than 3 coordinates".into()));
+                }
+                let (x, y, z) = (vals[0], vals[1], vals[2]);
+                if !(x.is_finite() && y.is_finite() && z.is_finite()) {
+                    if opts.drop_invalid {
+                        dropped += 1;
+                        // Keep indices stable for faces: a placeholder that is never emitted.
+                        buffered.points.push(InputPoint {
+                            pos: DVec3::NAN,
+                            normal: Vec3::ZERO,
+                            color: [0; 4],
+                        });
+                        continue;
+                    }
+                    return Err(ReadError::NonFinite {
+                        element: "v".into(),
+                        row: report.rows,
+                        line: Some(line_no),
+                        x,
+                        y,
+                        z,
+                    });
+                }
+                let color = if vals.len() >= 6 {
+                    report.has_colors = true;
+                    [
+                        color_channel(vals[3], ply::Scalar::F64),
+                        color_channel(vals[4], ply::Scalar::F64),
+                        color_channel(vals[5], ply::Scalar::F64),
+                        255,
+                    ]
+                } else {
+                    [0; 4]
+                };
+                buffered.points.push(InputPoint { pos: DVec3::new(x, y, z), normal: Vec3::ZERO, color });
+            }
+            Some("f") => {
+                idx.clear();
+                let n = buffered.points.len() as f64;
+                for t in tok {
+                    let first = t.split('/').next().unwrap_or("");
+                    let i: i64 =
+                        first.parse().map_err(|_| unusable(line_no, format!("bad face index '{t}'")))?;
+                    // 1-based, negative = relative to the end.
+                    idx.push(if i < 0 { n + i as f64 } else { i as f64 - 1.0 });
+                }
+                if buffered.add_polygon(&idx, &mut bad_faces) {
+                    report.faces_used += 1;
+                }
+            }
+            _ => {}
+        }
+    }
+    if report.rows == 0 {
+        return Err(ReadError::Unusable("the file has 0 vertices ('v' lines)".into()));
+    }
+    if dropped > 0 {
+        report.warnings.push(format!("{dropped} vertex row(s) with non-finite coordinates dropped"));
+    }
+    if report.rows > opts.face_vertex_limit {
+        buffered.tris.clear();
+    }
+    let placeholder_free = std::mem::take(&mut buffered.points);
+    let mut kept = Buffered { points: placeholder_free, ..buffered };
+    // Emit through `finish`, skipping placeholders of dropped vertices.
+    let mut wrapped = |p: InputPoint| if p.pos.is_finite() { sink(p) } else { Ok(()) };
+    kept.face_normals.clear();
+    kept.finish(&mut report, bad_faces, &mut wrapped)?;
+    report.points -= dropped;
+    Ok(report)
+}
+
+/// Reads a whole file into memory (for small files and tests).
+pub fn read_all(path: &Path, opts: &ReadOptions) -> Result<(Vec<InputPoint>, ReadReport), ReadError> {
+    let mut pts = Vec::new();
+    let rep = read_file(path, opts, &mut |p| {
+        pts.push(p);
+        Ok(())
+    })?;
+    Ok((pts, rep))
+}
+
+/// Reads from any byte source (PLY).
+pub fn read_ply_bytes(bytes: &[u8], opts: &ReadOptions) -> Result<(Vec<InputPoint>, ReadReport), ReadError> {
+    let mut pts = Vec::new();
+    let mut r = BufReader::new(bytes);
+    let rep = read_ply(&mut r, opts, &mut |p| {
+        pts.push(p);
+        Ok(())
+    })?;
+    Ok((pts, rep))
+}

@@ -1,0 +1,148 @@
+//! Writes a store file sequentially: nodes as they are completed (children before parents), then
+//! the index, then the header at offset 0. The file is written under a temporary name and
+//! renamed into place at the end, so an interrupted import never leaves a half store behind.
+
+use kiosk_core::scene::boxtree::box_count;
+use kiosk_core::scene::store::{self, NONE, NodeRecord, StoreHeader};
+use kiosk_core::{Aabb, Splat};
+use std::fs::File;
+use std::io::{BufWriter, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+
+/// A store being written.
+pub struct StoreWriter {
+    out: BufWriter<File>,
+    tmp_path: PathBuf,
+    final_path: PathBuf,
+    offset: u64,
+    nodes: Vec<NodeRecord>,
+    points: u64,
+    leaf_points: u64,
+}
+
+/// Statistics of one node's samples, for its index record.
+pub struct NodeStats {
+    /// Average sample spacing.
+    pub spacing: f32,
+}
+
+impl StoreWriter {
+    /// Creates `path` (through a temporary file beside it).
+    pub fn create(path: &Path) -> std::io::Result<Self> {
+        let mut tmp = path.as_os_str().to_owned();
+        tmp.push(".partial");
+        let tmp_path = PathBuf::from(tmp);
+        let mut out = BufWriter::with_capacity(1 << 20, File::create(&tmp_path)?);
+        out.write_all(&[0u8; StoreHeader::LEN])?;
+        Ok(Self {
+            out,
+            tmp_path,
+            final_path: path.to_path_buf(),
+            offset: StoreHeader::LEN as u64,
+            nodes: Vec::new(),
+            points: 0,
+            leaf_points: 0,
+        })
+    }
+
+    /// Bytes written so far.
+    pub fn bytes_written(&self) -> u64 {
+        self.offset
+    }
+
+    /// Appends a node. `splats` must be spatially sorted and `boxes` built from them.
+    /// Returns the node id.
+    pub fn add_node(
+        &mut self,
+        splats: &[Splat],
+        boxes: &[Aabb],
+        children: Option<[u32; 2]>,
+        stats: NodeStats,
+    ) -> std::io::Result<u32> {
+        debug_assert_eq!(boxes.len(), box_count(splats.len()));
+        let id = self.nodes.len() as u32;
+        let points_offset = self.offset;
+        self.out.write_all(bytemuck::cast_slice(splats))?;
+        self.offset += std::mem::size_of_val(splats) as u64;
+        let boxes_offset = self.offset;
+        self.out.write_all(bytemuck::cast_slice(boxes))?;
+        self.offset += std::mem::size_of_val(boxes) as u64;
+        let bbox = boxes.first().copied().unwrap_or(Aabb::EMPTY);
+        let (mut rmin, mut rmax, mut rsum) = (f32::INFINITY, 0.0f32, 0.0f64);
+        for s in splats {
+            rmin = rmin.min(s.radius);
+            rmax = rmax.max(s.radius);
+            rsum += f64::from(s.radius);
+        }
+        let height = match children {
+            Some([a, b]) => {
+                for c in [a, b] {
+                    self.nodes[c as usize].parent = id;
+                }
+                1 + self.nodes[a as usize].height.max(self.nodes[b as usize].height)
+            }
+            None => 0,
+        };
+        self.nodes.push(NodeRecord {
+            points_offset,
+            boxes_offset,
+            bbox_min: bbox.min.to_array(),
+            bbox_max: bbox.max.to_array(),
+            children: children.unwrap_or([NONE, NONE]),
+            parent: NONE,
+            point_count: splats.len() as u32,
+            height,
+            radius_min: rmin,
+            radius_avg: (rsum / splats.len().max(1) as f64) as f32,
+            radius_max: rmax,
+            spacing: stats.spacing,
+            data_crc: store::node_data_crc(splats, boxes),
+        });
+        self.points += splats.len() as u64;
+        if children.is_none() {
+            self.leaf_points += splats.len() as u64;
+        }
+        Ok(id)
+    }
+
+    /// A node already written.
+    pub fn node(&self, id: u32) -> &NodeRecord {
+        &self.nodes[id as usize]
+    }
+
+    /// Writes the index and the header and moves the file into place. The last node added is
+    /// the root.
+    pub fn finish(mut self, origin: [f64; 3], input_points: u64, node_points: u32) -> std::io::Result<u64> {
+        let pad = (8 - self.offset % 8) % 8;
+        self.out.write_all(&[0u8; 8][..pad as usize])?;
+        self.offset += pad;
+        let index_offset = self.offset;
+        let index: &[u8] = bytemuck::cast_slice(&self.nodes);
+        self.out.write_all(index)?;
+        self.offset += index.len() as u64;
+        let header = StoreHeader {
+            magic: store::MAGIC,
+            version: store::VERSION,
+            header_len: StoreHeader::LEN as u32,
+            origin,
+            node_count: self.nodes.len() as u64,
+            point_count: self.points,
+            leaf_point_count: self.leaf_points,
+            input_point_count: input_points,
+            index_offset,
+            file_len: self.offset,
+            root: self.nodes.len() as u32 - 1,
+            node_points,
+            index_crc: store::crc(index),
+            header_crc: 0,
+        }
+        .seal();
+        self.out.seek(SeekFrom::Start(0))?;
+        self.out.write_all(bytemuck::bytes_of(&header))?;
+        let file = self.out.into_inner().map_err(|e| e.into_error())?;
+        file.sync_all()?;
+        drop(file);
+        std::fs::rename(&self.tmp_path, &self.final_path)?;
+        Ok(self.offset)
+    }
+}
