@@ -1,1 +1,4 @@
-fn main() {}
+//! The integration tests of IsoKiosk: one binary (see `Cargo.toml`).
+
+mod common;
+mod scene;

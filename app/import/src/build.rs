@@ -110,11 +110,19 @@ struct RawRec {
     pos: [f64; 3],
     normal: [f32; 3],
     color: [u8; 4],
+    radius: f32,
+    reserved: u32,
 }
 
 impl From<InputPoint> for RawRec {
     fn from(p: InputPoint) -> Self {
-        Self { pos: p.pos.to_array(), normal: p.normal.to_array(), color: p.color }
+        Self {
+            pos: p.pos.to_array(),
+            normal: p.normal.to_array(),
+            color: p.color,
+            radius: p.radius,
+            reserved: 0,
+        }
     }
 }
 
@@ -408,15 +416,17 @@ impl Ctx<'_> {
     /// Processes one in-memory region into a subtree.
     fn region(&mut self, recs: &[RawRec], origin: DVec3) -> Result<Sub, BuildError> {
         let n_in = recs.len() as u64;
-        let mut pts: Vec<(Vec3, Vec3, [u8; 4])> = recs
+        let mut pts: Vec<(Vec3, Vec3, [u8; 4], f32)> = recs
             .iter()
-            .map(|r| ((DVec3::from_array(r.pos) - origin).as_vec3(), Vec3::from_array(r.normal), r.color))
+            .map(|r| {
+                ((DVec3::from_array(r.pos) - origin).as_vec3(), Vec3::from_array(r.normal), r.color, r.radius)
+            })
             .collect();
         // Merge duplicates (identical stored positions): average their normals and colours.
         pts.par_sort_unstable_by(|a, b| {
             a.0.x.total_cmp(&b.0.x).then(a.0.y.total_cmp(&b.0.y)).then(a.0.z.total_cmp(&b.0.z))
         });
-        let mut merged: Vec<(Vec3, Vec3, [u8; 4])> = Vec::with_capacity(pts.len());
+        let mut merged: Vec<(Vec3, Vec3, [u8; 4], f32)> = Vec::with_capacity(pts.len());
         let mut i = 0;
         while i < pts.len() {
             let mut j = i + 1;
@@ -434,7 +444,8 @@ impl Ctx<'_> {
                     }
                 }
                 let n = (j - i) as u32;
-                merged.push((pts[i].0, nrm, c.map(|x| (x / n) as u8)));
+                let r = pts[i..j].iter().fold(0.0f32, |a, p| a.max(p.3));
+                merged.push((pts[i].0, nrm, c.map(|x| (x / n) as u8), r));
             }
             i = j;
         }
@@ -462,13 +473,14 @@ impl Ctx<'_> {
         let mut work: Vec<Work> = Vec::with_capacity(positions.len());
         let mut spacing2 = Vec::with_capacity(positions.len());
         for (k, &o) in order.iter().enumerate() {
-            let (pos, nrm, color) = merged[o as usize];
+            let (pos, nrm, color, min_radius) = merged[o as usize];
             let Estimate { normal, spacing } = est[k];
             let n = if nrm == Vec3::ZERO { normal } else { nrm };
             // A lone point far from the rest still gets a finite, positive radius.
             let h = if spacing > 0.0 && spacing.is_finite() { spacing } else { f32::MIN_POSITIVE };
             spacing2.push(h * h);
-            work.push(Work { pos, normal: n, radius: self.params.radius_factor * h, color });
+            let radius = (self.params.radius_factor * h).max(min_radius);
+            work.push(Work { pos, normal: n, radius, color });
         }
         drop(merged);
         let mut h2 = spacing2;

@@ -20,6 +20,8 @@ pub struct InputPoint {
     pub normal: Vec3,
     /// sRGB colour with alpha 255, or all zero when the file has no colour.
     pub color: [u8; 4],
+    /// Radius this sample must cover at least (from the mesh's faces), or 0 when unknown.
+    pub radius: f32,
 }
 
 /// Options of the readers.
@@ -122,56 +124,58 @@ struct Buffered {
 }
 
 impl Buffered {
-    /// Adds the area-weighted normal of every triangle of a polygon (fan) to its vertices.
-    fn add_polygon(&mut self, idx: &[f64], warn_bad: &mut u64) -> bool {
+    /// Records the triangles (a fan) of a polygon; its area-weighted normal goes to its vertices
+    /// in [`Buffered::finish`]. A polygon with fewer than 3 vertices or a negative index is an
+    /// error (a broken mesh).
+    fn add_polygon(&mut self, idx: &[f64]) -> Result<(), String> {
         if idx.len() < 3 {
-            *warn_bad += 1;
-            return false;
+            return Err(format!("polygon with {} vertex index(es); a face needs at least 3", idx.len()));
+        }
+        if let Some(bad) = idx.iter().find(|&&i| !(0.0..f64::from(u32::MAX)).contains(&i)) {
+            return Err(format!("vertex index {bad} is out of range"));
         }
         for k in 1..idx.len() - 1 {
-            let t = [idx[0], idx[k], idx[k + 1]];
-            if t.iter().any(|&i| !(i >= 0.0 && i < u32::MAX as f64)) {
-                *warn_bad += 1;
-                return false;
-            }
-            self.tris.push(t.map(|i| i as u32));
+            self.tris.push([idx[0], idx[k], idx[k + 1]].map(|i| i as u32));
         }
-        true
+        Ok(())
     }
 
-    fn finish(
-        mut self,
-        report: &mut ReadReport,
-        bad_faces: u64,
-        sink: &mut Sink<'_>,
-    ) -> Result<(), ReadError> {
+    fn finish(mut self, report: &mut ReadReport, sink: &mut Sink<'_>) -> Result<(), ReadError> {
         let n = self.points.len();
-        let mut out_of_range = 0u64;
+        if let Some(t) = self.tris.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
+            return Err(ReadError::Unusable(format!(
+                "a face refers to vertex {} but the file has {n} vertices (indices start at 0)",
+                t.iter().max().copied().unwrap_or(0)
+            )));
+        }
+        let mut face_radius = vec![0.0f64; if self.tris.is_empty() { 0 } else { n }];
         if !self.tris.is_empty() {
             self.face_normals = vec![DVec3::ZERO; n];
             for t in &self.tris {
-                if t.iter().any(|&i| i as usize >= n) {
-                    out_of_range += 1;
-                    continue;
-                }
                 let [a, b, c] = t.map(|i| self.points[i as usize].pos);
                 // Cross product length = 2 × area: area weighting for free.
                 let nrm = (b - a).cross(c - a);
+                // Every point of a triangle is within its circumradius of a vertex, so discs of
+                // that radius at the vertices leave no hole (capped by the longest edge for
+                // slivers, whose circumradius explodes).
+                let (ab, bc, ca) = ((b - a).length(), (c - b).length(), (a - c).length());
+                let longest = ab.max(bc).max(ca);
+                let area2 = nrm.length();
+                let circum = if area2 > 0.0 { ab * bc * ca / (2.0 * area2) } else { longest };
+                let r = circum.min(longest);
                 for i in t {
                     self.face_normals[*i as usize] += nrm;
+                    face_radius[*i as usize] = face_radius[*i as usize].max(r);
                 }
             }
-        }
-        if bad_faces + out_of_range > 0 {
-            report.warnings.push(format!(
-                "{} face(s) ignored (fewer than 3 vertices or indices out of range)",
-                bad_faces + out_of_range
-            ));
         }
         let has_face_normals = !self.face_normals.is_empty();
         for (i, mut p) in self.points.into_iter().enumerate() {
             if p.normal == Vec3::ZERO && has_face_normals {
                 p.normal = self.face_normals[i].try_normalize().map_or(Vec3::ZERO, |v| v.as_vec3());
+            }
+            if let Some(r) = face_radius.get(i) {
+                p.radius = *r as f32;
             }
             sink(p).map_err(ReadError::Sink)?;
             report.points += 1;
@@ -252,7 +256,6 @@ pub fn read_ply(
         ));
     }
     let mut buffered = Buffered::default();
-    let mut bad_faces = 0u64;
     let mut dropped = 0u64;
     let mut sink_err = None;
     let body_warnings = ply::read_body(r, &header, |ei, ri, row| {
@@ -290,7 +293,7 @@ pub fn read_ply(
                 }
                 None => [0; 4],
             };
-            let p = InputPoint { pos: DVec3::new(x, y, z), normal, color };
+            let p = InputPoint { pos: DVec3::new(x, y, z), normal, color, radius: 0.0 };
             if use_faces {
                 buffered.points.push(p);
             } else if sink_err.is_none() {
@@ -301,9 +304,10 @@ pub fn read_ply(
             }
         } else if let Some((fi, li)) = face
             && ei == fi
-            && use_faces
-            && buffered.add_polygon(&row.lists[li], &mut bad_faces)
+            && (use_faces || row.lists[li].len() < 3)
         {
+            let to_row = |msg| PlyError::Row { element: "face".into(), row: ri + 1, line: None, msg };
+            buffered.add_polygon(&row.lists[li]).map_err(to_row)?;
             report.faces_used += 1;
         }
         Ok(())
@@ -317,7 +321,7 @@ pub fn read_ply(
         report.warnings.push(format!("{dropped} vertex row(s) with non-finite coordinates dropped"));
     }
     if use_faces {
-        buffered.finish(&mut report, bad_faces, sink)?;
+        buffered.finish(&mut report, sink)?;
     }
     Ok(report)
 }
@@ -331,7 +335,6 @@ pub fn read_obj(
 ) -> Result<ReadReport, ReadError> {
     let mut report = ReadReport::default();
     let mut buffered = Buffered::default();
-    let mut bad_faces = 0u64;
     let mut dropped = 0u64;
     let mut line = String::new();
     let mut line_no = 0usize;
@@ -364,6 +367,7 @@ pub fn read_obj(
                             pos: DVec3::NAN,
                             normal: Vec3::ZERO,
                             color: [0; 4],
+                            radius: 0.0,
                         });
                         continue;
                     }
@@ -387,7 +391,12 @@ pub fn read_obj(
                 } else {
                     [0; 4]
                 };
-                buffered.points.push(InputPoint { pos: DVec3::new(x, y, z), normal: Vec3::ZERO, color });
+                buffered.points.push(InputPoint {
+                    pos: DVec3::new(x, y, z),
+                    normal: Vec3::ZERO,
+                    color,
+                    radius: 0.0,
+                });
             }
             Some("f") => {
                 idx.clear();
@@ -399,9 +408,8 @@ pub fn read_obj(
                     // 1-based, negative = relative to the end.
                     idx.push(if i < 0 { n + i as f64 } else { i as f64 - 1.0 });
                 }
-                if buffered.add_polygon(&idx, &mut bad_faces) {
-                    report.faces_used += 1;
-                }
+                buffered.add_polygon(&idx).map_err(|m| unusable(line_no, m))?;
+                report.faces_used += 1;
             }
             _ => {}
         }
@@ -420,7 +428,7 @@ pub fn read_obj(
     // Emit through `finish`, skipping placeholders of dropped vertices.
     let mut wrapped = |p: InputPoint| if p.pos.is_finite() { sink(p) } else { Ok(()) };
     kept.face_normals.clear();
-    kept.finish(&mut report, bad_faces, &mut wrapped)?;
+    kept.finish(&mut report, &mut wrapped)?;
     report.points -= dropped;
     Ok(report)
 }

@@ -67,17 +67,21 @@ impl StoreWriter {
         let boxes_offset = self.offset;
         self.out.write_all(bytemuck::cast_slice(boxes))?;
         self.offset += std::mem::size_of_val(boxes) as u64;
-        let bbox = boxes.first().copied().unwrap_or(Aabb::EMPTY);
+        let mut bbox = boxes.first().copied().unwrap_or(Aabb::EMPTY);
         let (mut rmin, mut rmax, mut rsum) = (f32::INFINITY, 0.0f32, 0.0f64);
         for s in splats {
             rmin = rmin.min(s.radius);
             rmax = rmax.max(s.radius);
             rsum += f64::from(s.radius);
         }
+        let mut subtree_radius_max = rmax;
         let height = match children {
             Some([a, b]) => {
                 for c in [a, b] {
-                    self.nodes[c as usize].parent = id;
+                    let child = &mut self.nodes[c as usize];
+                    child.parent = id;
+                    bbox = bbox.union(child.bbox());
+                    subtree_radius_max = subtree_radius_max.max(child.subtree_radius_max);
                 }
                 1 + self.nodes[a as usize].height.max(self.nodes[b as usize].height)
             }
@@ -97,6 +101,8 @@ impl StoreWriter {
             radius_max: rmax,
             spacing: stats.spacing,
             data_crc: store::node_data_crc(splats, boxes),
+            subtree_radius_max,
+            reserved: 0,
         });
         self.points += splats.len() as u64;
         if children.is_none() {

@@ -232,6 +232,39 @@ impl Cut {
     /// The nodes of the cut inside the frustum: what the renderer draws.
     pub fn visible_nodes<B: AsRef<[u8]>>(&self, store: &Store<B>, view: &ViewParams) -> Vec<NodeId> {
         let planes = view.frustum_planes();
-        self.front.iter().copied().filter(|&id| box_in_frustum(&planes, &store.node(id).bbox())).collect()
+        self.front
+            .iter()
+            .copied()
+            .filter(|&id| {
+                let n = store.node(id);
+                box_in_frustum(&planes, &n.bbox().inflate(n.radius_max))
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frustum_keeps_what_is_in_front_and_drops_what_is_behind() {
+        let v = ViewParams::look_at(
+            DVec3::ZERO,
+            DVec3::new(0.0, 0.0, 10.0),
+            DVec3::ZERO,
+            DVec3::Y,
+            0.8,
+            (640, 480),
+            (0.1, 100.0),
+        )
+        .expect("valid view");
+        let planes = v.frustum_planes();
+        let unit = |c: Vec3| Aabb { min: c - Vec3::splat(0.5), max: c + Vec3::splat(0.5) };
+        assert!(box_in_frustum(&planes, &unit(Vec3::ZERO)));
+        assert!(!box_in_frustum(&planes, &unit(Vec3::new(0.0, 0.0, 20.0))), "behind the eye");
+        assert!(!box_in_frustum(&planes, &unit(Vec3::new(30.0, 0.0, 0.0))), "far to the right");
+        assert!(!box_in_frustum(&planes, &unit(Vec3::new(0.0, 0.0, -200.0))), "beyond the far plane");
+        assert!((v.projected_px(&unit(Vec3::ZERO), 1.0) - 480.0 / (2.0 * 0.4f32.tan()) / 9.5).abs() < 1e-3);
     }
 }

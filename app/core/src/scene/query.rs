@@ -199,7 +199,7 @@ impl<B: AsRef<[u8]>> Store<B> {
         let mut heap = BinaryHeap::new();
         let entry = |id: NodeId, t_best: f32| {
             let n = self.node(id);
-            n.bbox().inflate(n.radius_max).ray_interval(o, inv, 0.0, t_best).map(|(a, _)| a)
+            n.bbox().inflate(n.subtree_radius_max).ray_interval(o, inv, 0.0, t_best).map(|(a, _)| a)
         };
         if let Some(t) = entry(self.root(), t_best) {
             heap.push(Pending(t, self.root()));

@@ -3,6 +3,7 @@
 //! Layout (all little endian; version 1):
 //! ```text
 //! [StoreHeader]                      at 0, 112 bytes
+//! (NodeRecord: 88 bytes)
 //! per node, in post order (children before parents):
 //!   [Splat; point_count]             at NodeRecord::points_offset (4-byte aligned)
 //!   [Aabb; box_count(points)]        at NodeRecord::boxes_offset  (4-byte aligned)
@@ -71,9 +72,10 @@ pub struct NodeRecord {
     pub points_offset: u64,
     /// Byte offset of the node's search boxes.
     pub boxes_offset: u64,
-    /// Bounding box of the positions (local coordinates).
+    /// Bounding box of the positions of the node **and all its descendants** (local
+    /// coordinates): a valid bound for searches that descend the tree.
     pub bbox_min: [f32; 3],
-    /// Bounding box of the positions (local coordinates).
+    /// See `bbox_min`.
     pub bbox_max: [f32; 3],
     /// Children, or [`NONE`] for a leaf.
     pub children: [u32; 2],
@@ -93,10 +95,14 @@ pub struct NodeRecord {
     pub spacing: f32,
     /// CRC-32 of the node's splats and boxes.
     pub data_crc: u32,
+    /// Largest splat radius in the node's subtree (bounds ray casts that descend the tree).
+    pub subtree_radius_max: f32,
+    /// Zero.
+    pub reserved: u32,
 }
 
 impl NodeRecord {
-    /// Bounding box of the node's positions.
+    /// Bounding box of the positions of the node's subtree.
     pub fn bbox(&self) -> Aabb {
         Aabb { min: Vec3::from_array(self.bbox_min), max: Vec3::from_array(self.bbox_max) }
     }
@@ -108,7 +114,7 @@ impl NodeRecord {
 }
 
 /// Why a store cannot be opened or read.
-#[derive(Debug, thiserror::Error, PartialEq)]
+#[derive(Clone, Debug, thiserror::Error, PartialEq)]
 pub enum StoreError {
     /// Not a store at all.
     #[error("not an IsoKiosk store (bad magic bytes; expected \"ISOKSTOR\")")]
@@ -239,12 +245,16 @@ impl<B: AsRef<[u8]>> Store<B> {
             }
             let p_len = u64::from(node.point_count) * std::mem::size_of::<Splat>() as u64;
             let b_len = box_count(node.point_count as usize) as u64 * std::mem::size_of::<Aabb>() as u64;
-            let in_file = |off: u64, l: u64| off.is_multiple_of(4) && off.checked_add(l).is_some_and(|e| e <= len);
+            let in_file =
+                |off: u64, l: u64| off.is_multiple_of(4) && off.checked_add(l).is_some_and(|e| e <= len);
             if !in_file(node.points_offset, p_len) || !in_file(node.boxes_offset, b_len) {
                 return Err(bad("its data lies outside the file".into()));
             }
             if !node.bbox().min.is_finite() || !node.bbox().max.is_finite() || node.bbox().is_empty() {
                 return Err(bad("invalid bounding box".into()));
+            }
+            if !(node.subtree_radius_max.is_finite() && node.subtree_radius_max >= node.radius_max) {
+                return Err(bad("invalid radius bound".into()));
             }
             points += u64::from(node.point_count);
             match node.children {

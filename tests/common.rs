@@ -1,0 +1,59 @@
+//! Helpers shared by the integration tests.
+
+use glam::DVec3;
+use kiosk::MappedStore;
+use kiosk_import::source::{self, InputPoint, ReadOptions};
+use kiosk_import::{BuildParams, BuildSummary, Builder};
+use std::path::{Path, PathBuf};
+
+/// The test data directory (copied into the repository with its SOURCES).
+pub fn data(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(rel)
+}
+
+/// Reads a scan into memory.
+pub fn read(rel: &str) -> Vec<InputPoint> {
+    let path = data(rel);
+    match source::read_all(&path, &ReadOptions::default()) {
+        Ok((pts, _)) => pts,
+        Err(e) => panic!("{}: {e}", path.display()),
+    }
+}
+
+/// A built store in a temporary directory (kept alive with it).
+pub struct Built {
+    pub store: MappedStore,
+    pub summary: BuildSummary,
+    pub _dir: tempfile::TempDir,
+}
+
+/// Builds a store from points.
+pub fn build(points: &[InputPoint], params: BuildParams) -> Built {
+    try_build(points, params).unwrap_or_else(|e| panic!("build failed: {e}"))
+}
+
+/// Builds a store from points, returning the builder's error.
+pub fn try_build(points: &[InputPoint], params: BuildParams) -> Result<Built, kiosk_import::BuildError> {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("model.kstore");
+    let mut b = Builder::new(params, dir.path())?;
+    for p in points {
+        b.push(*p)?;
+    }
+    let summary = b.finish(&out, &mut |_| {})?;
+    let store = kiosk::open_store(&out).unwrap_or_else(|e| panic!("{e:#}"));
+    Ok(Built { store, summary, _dir: dir })
+}
+
+/// Small nodes so that real scans of a few ten thousand points make deep trees.
+pub fn small_nodes() -> BuildParams {
+    BuildParams { node_points: 512, chunk_points: 1_000_000, ..BuildParams::default() }
+}
+
+/// Applies `p ↦ p·scale + offset` to every position.
+pub fn transform(points: &[InputPoint], scale: f64, offset: DVec3) -> Vec<InputPoint> {
+    points
+        .iter()
+        .map(|p| InputPoint { pos: p.pos * scale + offset, radius: p.radius * scale as f32, ..*p })
+        .collect()
+}

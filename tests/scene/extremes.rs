@@ -1,0 +1,155 @@
+//! Numerical extremes (DESIGN §9): georeferenced offsets, sub-millimetre and huge scales,
+//! degenerate inputs.
+
+use crate::common::{self, small_nodes};
+use glam::{DVec3, Vec3};
+use kiosk_core::{Cut, QueryParams};
+use kiosk_import::source::InputPoint;
+use rand::{Rng, SeedableRng};
+
+fn probe_points(center: DVec3, diag: f64) -> Vec<DVec3> {
+    let mut r = rand_pcg::Pcg64::seed_from_u64(5);
+    (0..200)
+        .map(|_| {
+            center
+                + DVec3::new(r.random_range(-0.6..0.6), r.random_range(-0.6..0.6), r.random_range(-0.6..0.6))
+                    * diag
+        })
+        .collect()
+}
+
+/// Builds the demo bust as is and transformed by `p·s + t`; the fine and coarse targets and the
+/// exact nearest sample of transformed queries are the transformed answers, up to rounding.
+fn assert_same_queries_under(scale: f64, offset: DVec3) {
+    let pts = common::read("scans/demosthenes/demosthenes-low-res.obj");
+    let a = common::build(&pts, small_nodes());
+    let b = common::build(&common::transform(&pts, scale, offset), small_nodes());
+    assert_eq!(a.summary.leaf_points, b.summary.leaf_points);
+    assert_eq!(a.summary.nodes, b.summary.nodes);
+    let (sa, sb) = (&a.store, &b.store);
+    let diag = f64::from(sa.bbox().diagonal());
+    let (ca, cb) = (Cut::leaves(sa), Cut::leaves(sb));
+    let q = QueryParams::default();
+    let mut worst: f64 = 0.0;
+    for p in probe_points(sa.to_model(sa.bbox().center()), diag) {
+        let pb = p * scale + offset;
+        let back = |x: DVec3| (x - offset) / scale;
+        let fa = sa.fine_target(&ca, p, &q).expect("finite");
+        let fb = sb.fine_target(&cb, pb, &q).expect("finite");
+        let oa = sa.coarse_target(&ca, p, &q).expect("finite");
+        let ob = sb.coarse_target(&cb, pb, &q).expect("finite");
+        let (_, na) = sa.nearest_sample(p).expect("finite");
+        let (_, nb) = sb.nearest_sample(pb).expect("finite");
+        for (x, y) in [(fa.point, back(fb.point)), (oa.point, back(ob.point)), (na, back(nb))] {
+            worst = worst.max((x - y).length() / diag);
+        }
+    }
+    // f32 local coordinates: a few ulps of the model size.
+    assert!(worst < 1e-5, "scale {scale}, offset {offset}: relative difference {worst:e}");
+}
+
+#[test]
+fn georeferenced_model_answers_like_the_model_at_the_origin() {
+    assert_same_queries_under(1.0, DVec3::new(1.0e7, -3.0e6, 4.5e6));
+}
+
+#[test]
+fn sub_millimetre_scale_answers_like_the_original() {
+    assert_same_queries_under(1e-4, DVec3::ZERO);
+}
+
+#[test]
+fn thousandfold_scale_answers_like_the_original() {
+    assert_same_queries_under(1e3, DVec3::ZERO);
+}
+
+#[test]
+fn georeferenced_and_tiny_at_once() {
+    assert_same_queries_under(1e-3, DVec3::new(6.0e6, 2.0e6, 350.0));
+}
+
+fn point(x: f64, y: f64, z: f64) -> InputPoint {
+    InputPoint { pos: DVec3::new(x, y, z), normal: Vec3::ZERO, color: [0; 4], radius: 0.0 }
+}
+
+#[test]
+fn empty_model_is_a_clear_error() {
+    let err = common::try_build(&[], small_nodes()).err().expect("must fail");
+    assert_eq!(err.to_string(), "the model has no samples");
+}
+
+#[test]
+fn one_point_and_identical_points_are_a_clear_error() {
+    let err = common::try_build(&[point(1.0, 2.0, 3.0)], small_nodes()).err().expect("must fail");
+    assert!(err.to_string().contains("all 1 samples are at the same position"), "{err}");
+    let same = vec![point(1.0, 2.0, 3.0); 1000];
+    let err = common::try_build(&same, small_nodes()).err().expect("must fail");
+    assert!(err.to_string().contains("all 1000 samples are at the same position"), "{err}");
+}
+
+/// Documented result: collinear points build a model; their normals are an arbitrary (but
+/// deterministic) perpendicular of the line, and every query stays finite.
+#[test]
+fn collinear_points_build_and_answer_finitely() {
+    let pts: Vec<InputPoint> =
+        (0..5000).map(|i| point(i as f64 * 1e-3, 2.0 * i as f64 * 1e-3, 0.5)).collect();
+    let b = common::build(&pts, small_nodes());
+    let cut = Cut::leaves(&b.store);
+    for id in cut.nodes() {
+        for s in b.store.splats(*id) {
+            let n = s.normal();
+            assert!(n.is_finite() && n.dot(Vec3::new(1.0, 2.0, 0.0).normalize_or_zero()).abs() < 1e-3);
+            assert!(s.radius.is_finite() && s.radius > 0.0);
+        }
+    }
+    let t = b.store.fine_target(&cut, DVec3::new(3.0, 0.0, 0.0), &QueryParams::default()).expect("finite");
+    assert!(t.point.is_finite());
+    let hit =
+        b.store.ray_cast(kiosk_core::Level::Full, DVec3::new(1.0, 2.0, 5.0), DVec3::NEG_Z, f64::INFINITY);
+    assert!(hit.is_some_and(|h| (h.point.z - 0.5).abs() < 0.01));
+}
+
+/// Documented result: coplanar points build a model whose normals are the plane's normal.
+#[test]
+fn coplanar_points_get_the_plane_normal() {
+    let pts: Vec<InputPoint> =
+        (0..10_000).map(|i| point((i % 100) as f64 * 0.01, (i / 100) as f64 * 0.01, 7.0)).collect();
+    let b = common::build(&pts, small_nodes());
+    for id in Cut::leaves(&b.store).nodes() {
+        assert!(b.store.splats(*id).iter().all(|s| s.normal().z.abs() > 0.999));
+    }
+    assert_eq!(b.summary.leaf_points, 10_000);
+}
+
+#[test]
+fn duplicate_points_are_merged() {
+    let mut pts = common::read("scans/stanford-bunny/bun_zipper_res4.ply");
+    let n = pts.len() as u64;
+    let dup: Vec<InputPoint> = pts.iter().take(100).copied().collect();
+    pts.extend(dup);
+    let b = common::build(&pts, small_nodes());
+    assert_eq!(b.summary.input_points, n + 100);
+    assert_eq!(b.summary.leaf_points, n);
+}
+
+#[test]
+fn out_of_core_build_matches_the_in_memory_build() {
+    let pts = common::read("scans/stanford-dragon/dragon_vrip_res2.ply.gz");
+    let params = kiosk_import::BuildParams { node_points: 1024, chunk_points: 8192, ..Default::default() };
+    let ooc = common::build(&pts, params);
+    assert!(ooc.summary.chunks >= 8, "{} regions", ooc.summary.chunks);
+    let mem = common::build(&pts, kiosk_import::BuildParams { chunk_points: 1_000_000, ..params });
+    assert_eq!(mem.summary.chunks, 1);
+    assert_eq!(ooc.summary.leaf_points, mem.summary.leaf_points);
+    for id in 0..ooc.store.nodes().len() as u32 {
+        ooc.store.verify_node(id).expect("valid node");
+        assert!(ooc.store.node(id).point_count as usize <= 1024);
+    }
+    // The same surface answers: nearest samples agree exactly (same samples at full resolution).
+    let diag = f64::from(mem.store.bbox().diagonal());
+    for p in probe_points(mem.store.to_model(mem.store.bbox().center()), diag) {
+        let (da, _) = mem.store.nearest_sample(p).expect("finite");
+        let (db, _) = ooc.store.nearest_sample(p).expect("finite");
+        assert!((da - db).abs() < 1e-9 * diag);
+    }
+}

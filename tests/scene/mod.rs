@@ -1,0 +1,6 @@
+//! The scene: scan readers, the hierarchy builder, the store, the cut and the queries.
+
+mod corpus;
+mod extremes;
+mod oracles;
+mod store_file;

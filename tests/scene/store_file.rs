@@ -1,0 +1,79 @@
+//! The store file: versioned, checksummed, and a clear error when truncated or corrupted.
+
+use crate::common::{self, small_nodes};
+use kiosk_core::StoreError;
+
+fn store_bytes() -> Vec<u8> {
+    let pts = common::read("scans/stanford-bunny/bun_zipper_res3.ply");
+    let dir = tempfile::tempdir().expect("tmp");
+    let out = dir.path().join("m.kstore");
+    let mut b = kiosk_import::Builder::new(small_nodes(), dir.path()).expect("params");
+    for p in pts {
+        b.push(p).expect("push");
+    }
+    b.finish(&out, &mut |_| {}).expect("build");
+    std::fs::read(&out).expect("read back")
+}
+
+fn open(bytes: &[u8]) -> anyhow::Result<kiosk::MappedStore> {
+    let dir = tempfile::tempdir()?;
+    let p = dir.path().join("x.kstore");
+    std::fs::write(&p, bytes)?;
+    kiosk::open_store(&p)
+}
+
+fn store_error(bytes: &[u8]) -> StoreError {
+    let e = open(bytes).expect_err("must fail");
+    e.downcast_ref::<StoreError>().cloned().unwrap_or_else(|| panic!("not a store error: {e:#}"))
+}
+
+#[test]
+fn a_good_store_opens_and_verifies() {
+    let bytes = store_bytes();
+    let s = open(&bytes).expect("opens");
+    for id in 0..s.nodes().len() as u32 {
+        s.verify_node(id).expect("node verifies");
+    }
+    assert_eq!(s.header().leaf_point_count, 1889);
+}
+
+#[test]
+fn truncated_store_is_a_clear_error() {
+    let bytes = store_bytes();
+    for cut in [bytes.len() - 1, bytes.len() / 2, 100, 8, 0] {
+        let e = store_error(&bytes[..cut]);
+        assert!(matches!(e, StoreError::Truncated { .. }), "cut at {cut}: {e}");
+        assert!(e.to_string().starts_with("store truncated"), "{e}");
+    }
+}
+
+#[test]
+fn corrupted_index_or_header_is_a_clear_error() {
+    let bytes = store_bytes();
+    let header: kiosk_core::StoreHeader =
+        bytemuck::pod_read_unaligned(&bytes[..kiosk_core::StoreHeader::LEN]);
+    let mut b = bytes.clone();
+    b[header.index_offset as usize + 20] ^= 0x40;
+    assert_eq!(store_error(&b), StoreError::Checksum { what: "node index".into() });
+    let mut b = bytes.clone();
+    b[20] ^= 1; // inside the origin
+    assert_eq!(store_error(&b), StoreError::Checksum { what: "header".into() });
+    let mut b = bytes.clone();
+    b[0] = b'X';
+    assert_eq!(store_error(&b), StoreError::BadMagic);
+    let mut b = bytes.clone();
+    b[8] = 9;
+    assert_eq!(store_error(&b), StoreError::Version { found: 9 });
+}
+
+#[test]
+fn corrupted_node_data_is_found_by_verification() {
+    let bytes = store_bytes();
+    let s = open(&bytes).expect("opens");
+    let off = s.node(0).points_offset as usize + 5;
+    let mut b = bytes.clone();
+    b[off] ^= 0x10;
+    let s = open(&b).expect("opening reads only the index");
+    assert_eq!(s.verify_node(0), Err(StoreError::Checksum { what: "node 0 data".into() }));
+    assert!(s.verify_node(1).is_ok());
+}
