@@ -20,7 +20,7 @@ use crate::source::InputPoint;
 use crate::writer::{NodeStats, StoreWriter};
 use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, Vec3};
-use kiosk_core::scene::boxtree::{self, BoxTree, KBest};
+use kiosk_core::scene::boxtree;
 use kiosk_core::{Aabb, Splat};
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
@@ -227,8 +227,7 @@ impl Builder {
         let origin = (self.min + self.max) * 0.5;
         let params = self.params;
         let mut writer = StoreWriter::create(out)?;
-        let mut ctx =
-            Ctx { params, writer: &mut writer, done: 0, total: self.count, progress, rng: self.rng.clone() };
+        let mut ctx = Ctx { params, writer: &mut writer, done: 0, total: self.count, progress };
         let (root, chunks) = match self.spill {
             Spill::Memory(v) => {
                 let root = ctx.region(&v, origin)?;
@@ -379,7 +378,6 @@ struct Ctx<'a> {
     done: u64,
     total: u64,
     progress: &'a mut dyn FnMut(Stage),
-    rng: rand_pcg::Pcg64,
 }
 
 impl Ctx<'_> {
@@ -467,7 +465,8 @@ impl Ctx<'_> {
             }
         }
         let boxes = boxtree::build_boxes(&positions);
-        let est = estimate::estimate(&positions, &boxes, self.params.knn)
+        let need_normal = |k: usize| merged[order[k] as usize].1 == Vec3::ZERO;
+        let est = estimate::estimate(&positions, &boxes, self.params.knn, &need_normal)
             .ok_or_else(|| BuildError::Degenerate("fewer than 2 distinct points".into()))?;
         drop(boxes);
         let mut work: Vec<Work> = Vec::with_capacity(positions.len());
@@ -487,65 +486,115 @@ impl Ctx<'_> {
         self.split(&mut work, &mut h2)
     }
 
-    /// Splits until leaves hold at most M samples; returns the subtree.
+    /// Builds the subtree of one region (both halves of every split in parallel), then writes
+    /// its nodes in post order so that stores are identical whatever the scheduling.
     fn split(&mut self, work: &mut [Work], h2: &mut [f32]) -> Result<Sub, BuildError> {
-        let m = self.params.node_points;
-        if work.len() <= m {
-            let spacing = (h2.iter().map(|&x| f64::from(x)).sum::<f64>() / h2.len() as f64).sqrt() as f32;
-            let id = self.write(work.to_vec(), None, spacing)?;
-            self.done += work.len() as u64;
-            (self.progress)(Stage::Build(self.done, self.total));
-            return Ok(Sub { id: id.0, samples: id.1, spacing });
+        let built = build_subtree(work, h2, &self.params);
+        let base = self.writer.node_count();
+        let mut last = None;
+        for node in &built.nodes {
+            let children = node.children.map(|c| c.map(|i| base + i));
+            last = Some(self.writer.add_node(
+                &node.splats,
+                &node.boxes,
+                children,
+                NodeStats { spacing: node.spacing },
+            )?);
         }
-        let axis = choose_axis(work);
-        let mid = work.len() / 2;
-        // Partition work and spacings together.
-        let mut idx: Vec<u32> = (0..work.len() as u32).collect();
-        idx.select_nth_unstable_by(mid, |&a, &b| {
-            work[a as usize].pos[axis].total_cmp(&work[b as usize].pos[axis])
-        });
-        let w2: Vec<Work> = idx.iter().map(|&i| work[i as usize]).collect();
-        let s2: Vec<f32> = idx.iter().map(|&i| h2[i as usize]).collect();
-        work.copy_from_slice(&w2);
-        h2.copy_from_slice(&s2);
-        drop((w2, s2, idx));
-        let (wl, wr) = work.split_at_mut(mid);
-        let (hl, hr) = h2.split_at_mut(mid);
-        let l = self.split(wl, hl)?;
-        let r = self.split(wr, hr)?;
-        self.join(l, r)
+        self.done += work.len() as u64;
+        (self.progress)(Stage::Build(self.done, self.total));
+        let id = last.ok_or_else(|| BuildError::Degenerate("empty region".into()))?;
+        Ok(Sub { id, samples: built.samples, spacing: built.spacing })
     }
 
     /// Makes the parent of two subtrees by simplifying the union of their samples.
     fn join(&mut self, a: Sub, b: Sub) -> Result<Sub, BuildError> {
-        let na = a.samples.len() as f64;
-        let nb = b.samples.len() as f64;
-        let area = na * f64::from(a.spacing).powi(2) + nb * f64::from(b.spacing).powi(2);
-        let mut all = a.samples;
-        all.extend(b.samples);
-        let simplified = simplify(all, self.params.node_points, self.params.merge_normal_cos, &mut self.rng);
-        let spacing = (area / simplified.len() as f64).sqrt() as f32;
-        let (id, samples) = self.write(simplified, Some([a.id, b.id]), spacing)?;
-        Ok(Sub { id, samples, spacing })
+        let parent = parent_of(a.samples, a.spacing, b.samples, b.spacing, &self.params);
+        let id = self.writer.add_node(
+            &parent.splats,
+            &parent.boxes,
+            Some([a.id, b.id]),
+            NodeStats { spacing: parent.spacing },
+        )?;
+        Ok(Sub { id, samples: parent.stored, spacing: parent.spacing })
     }
+}
 
-    fn write(
-        &mut self,
-        mut w: Vec<Work>,
-        children: Option<[u32; 2]>,
-        spacing: f32,
-    ) -> Result<(u32, Vec<Work>), BuildError> {
-        boxtree::sort_spatially(&mut w);
-        let boxes = boxtree::build_boxes(&w);
-        let splats: Vec<Splat> = w.iter().map(|s| Splat::new(s.pos, s.normal, s.radius, s.color)).collect();
-        let id = self.writer.add_node(&splats, &boxes, children, NodeStats { spacing })?;
-        // The parent is built from the stored (quantised-normal) samples, as balsa12 §4 advises.
-        let stored = splats
-            .iter()
-            .map(|s| Work { pos: s.position(), normal: s.normal(), radius: s.radius, color: s.color })
-            .collect();
-        Ok((id, stored))
+/// A node ready to be written.
+struct NodeOut {
+    splats: Vec<Splat>,
+    boxes: Vec<Aabb>,
+    /// Children as indices into the subtree's node list.
+    children: Option<[u32; 2]>,
+    spacing: f32,
+    /// The samples as stored (quantised normals): what the parent is built from (balsa12 §4).
+    stored: Vec<Work>,
+}
+
+/// A subtree built in memory: nodes in post order (the root last) and the root's samples.
+struct SubtreeOut {
+    nodes: Vec<NodeOut>,
+    samples: Vec<Work>,
+    spacing: f32,
+}
+
+fn make_node(mut w: Vec<Work>, children: Option<[u32; 2]>, spacing: f32) -> NodeOut {
+    boxtree::sort_spatially(&mut w);
+    let boxes = boxtree::build_boxes(&w);
+    let splats: Vec<Splat> = w.iter().map(|s| Splat::new(s.pos, s.normal, s.radius, s.color)).collect();
+    let stored = splats
+        .iter()
+        .map(|s| Work { pos: s.position(), normal: s.normal(), radius: s.radius, color: s.color })
+        .collect();
+    NodeOut { splats, boxes, children, spacing, stored }
+}
+
+/// The parent of two nodes: the union of their samples simplified to M. Its spacing keeps the
+/// area the children cover: n_p h_p² = n_a h_a² + n_b h_b².
+fn parent_of(a: Vec<Work>, ha: f32, b: Vec<Work>, hb: f32, params: &BuildParams) -> NodeOut {
+    let area = a.len() as f64 * f64::from(ha).powi(2) + b.len() as f64 * f64::from(hb).powi(2);
+    let mut all = a;
+    all.extend(b);
+    let simplified = simplify(all, params.node_points, params.merge_normal_cos);
+    let spacing = (area / simplified.len() as f64).sqrt() as f32;
+    make_node(simplified, None, spacing)
+}
+
+/// Splits until leaves hold at most M samples, building both halves in parallel.
+fn build_subtree(work: &mut [Work], h2: &mut [f32], params: &BuildParams) -> SubtreeOut {
+    if work.len() <= params.node_points {
+        let spacing = (h2.iter().map(|&x| f64::from(x)).sum::<f64>() / h2.len() as f64).sqrt() as f32;
+        let node = make_node(work.to_vec(), None, spacing);
+        let samples = node.stored.clone();
+        return SubtreeOut { nodes: vec![node], samples, spacing };
     }
+    let axis = choose_axis(work);
+    let mid = work.len() / 2;
+    // Partition work and spacings together.
+    let mut idx: Vec<u32> = (0..work.len() as u32).collect();
+    idx.select_nth_unstable_by(mid, |&a, &b| {
+        work[a as usize].pos[axis].total_cmp(&work[b as usize].pos[axis])
+    });
+    let w2: Vec<Work> = idx.iter().map(|&i| work[i as usize]).collect();
+    let s2: Vec<f32> = idx.iter().map(|&i| h2[i as usize]).collect();
+    work.copy_from_slice(&w2);
+    h2.copy_from_slice(&s2);
+    drop((w2, s2, idx));
+    let (wl, wr) = work.split_at_mut(mid);
+    let (hl, hr) = h2.split_at_mut(mid);
+    let (l, r) = rayon::join(|| build_subtree(wl, hl, params), || build_subtree(wr, hr, params));
+    let mut parent = parent_of(l.samples, l.spacing, r.samples, r.spacing, params);
+    let (nl, nr) = (l.nodes.len() as u32, r.nodes.len() as u32);
+    let mut nodes = l.nodes;
+    nodes.extend(r.nodes.into_iter().map(|mut n| {
+        n.children = n.children.map(|c| c.map(|i| i + nl));
+        n
+    }));
+    parent.children = Some([nl - 1, nl + nr - 1]);
+    let samples = parent.stored.clone();
+    let spacing = parent.spacing;
+    nodes.push(parent);
+    SubtreeOut { nodes, samples, spacing }
 }
 
 fn sort_keyed(v: &mut [(Vec3, u32)]) {
@@ -596,55 +645,60 @@ fn choose_axis(work: &[Work]) -> usize {
     best.1
 }
 
-/// Reduces `pts` to `target` samples by collapsing nearest pairs with compatible normals
-/// (bettio09 §3: shortest edges first). Each pass finds every sample's nearest compatible
-/// neighbour, then collapses edges shortest first, each sample at most once per pass.
+/// Reduces `pts` to `target` samples by collapsing near pairs with compatible normals
+/// (bettio09 §3: shortest edges first; balsa12 §4: nearest neighbour with a compatible normal).
+/// Each pass sorts the samples spatially; within each leaf of the implicit box hierarchy (fewer
+/// than 16 spatially close samples) it matches pairs greedily, shortest first; the candidate
+/// pairs of all leaves are then collapsed shortest first until `target` remain. A pass nearly
+/// halves the samples, so 2M → M takes one or two passes.
 /// Merged sample: midpoint; normal and colour weighted by splat area; radius covering both.
-fn simplify(mut pts: Vec<Work>, target: usize, normal_cos: f32, _rng: &mut rand_pcg::Pcg64) -> Vec<Work> {
+fn simplify(mut pts: Vec<Work>, target: usize, normal_cos: f32) -> Vec<Work> {
     let mut require_compatible = true;
     while pts.len() > target {
         boxtree::sort_spatially(&mut pts);
-        let boxes = boxtree::build_boxes(&pts);
-        let tree = BoxTree::new(&pts, &boxes);
-        let mut edges: Vec<(f32, u32, u32)> = pts
+        let ranges = boxtree::leaf_ranges(pts.len());
+        let mut edges: Vec<(f32, u32, u32)> = ranges
             .par_iter()
-            .enumerate()
-            .filter_map(|(i, p)| {
-                let mut best = KBest::new(6);
-                tree.knn(p.pos, u32::MAX, &mut best, &|j| j);
-                best.items()
-                    .iter()
-                    .find(|&&(_, j)| {
-                        j as usize != i
-                            && (!require_compatible || pts[j as usize].normal.dot(p.normal) >= normal_cos)
-                    })
-                    .map(|&(d2, j)| (d2, i as u32, j))
+            .flat_map_iter(|&(lo, hi)| {
+                let leaf = &pts[lo..hi];
+                let mut cand: Vec<(f32, u8, u8)> = Vec::with_capacity(leaf.len() * leaf.len() / 2);
+                for i in 0..leaf.len() {
+                    for j in i + 1..leaf.len() {
+                        if !require_compatible || leaf[i].normal.dot(leaf[j].normal) >= normal_cos {
+                            cand.push(((leaf[i].pos - leaf[j].pos).length_squared(), i as u8, j as u8));
+                        }
+                    }
+                }
+                cand.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+                let mut used = [false; boxtree::LEAF_POINTS];
+                let mut out = Vec::with_capacity(leaf.len() / 2);
+                for (d2, i, j) in cand {
+                    if !used[i as usize] && !used[j as usize] {
+                        used[i as usize] = true;
+                        used[j as usize] = true;
+                        out.push((d2, lo as u32 + u32::from(i), lo as u32 + u32::from(j)));
+                    }
+                }
+                out
             })
             .collect();
-        edges.par_sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
-        let mut used = vec![false; pts.len()];
-        let mut needed = pts.len() - target;
-        let mut out = Vec::with_capacity(pts.len());
-        for &(_, i, j) in &edges {
-            if needed == 0 {
-                break;
-            }
-            let (i, j) = (i as usize, j as usize);
-            if used[i] || used[j] {
-                continue;
-            }
-            used[i] = true;
-            used[j] = true;
-            out.push(merge(&pts[i], &pts[j]));
-            needed -= 1;
-        }
-        if out.is_empty() {
+        edges.par_sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let needed = pts.len() - target;
+        edges.truncate(needed);
+        if edges.is_empty() {
             if !require_compatible {
-                // Cannot happen with ≥ 2 points, but never loop forever.
+                // Only possible with a single sample per leaf; never loop forever.
                 break;
             }
             require_compatible = false;
             continue;
+        }
+        let mut used = vec![false; pts.len()];
+        let mut out = Vec::with_capacity(pts.len() - edges.len());
+        for &(_, i, j) in &edges {
+            used[i as usize] = true;
+            used[j as usize] = true;
+            out.push(merge(&pts[i as usize], &pts[j as usize]));
         }
         out.extend(pts.iter().zip(&used).filter(|(_, u)| !**u).map(|(p, _)| *p));
         pts = out;

@@ -70,23 +70,38 @@ pub struct Estimate {
     pub spacing: f32,
 }
 
-/// Estimates normal and spacing for every point of `positions` (spatially sorted, with `boxes`
-/// from [`boxtree::build_boxes`]) from its `k` nearest neighbours. `None` when there are fewer than
-/// two distinct points.
-pub fn estimate(positions: &[Vec3], boxes: &[kiosk_core::Aabb], k: usize) -> Option<Vec<Estimate>> {
+/// Estimates spacing, and the normal where `need_normal` says so (others get zero), for every
+/// point of `positions` (spatially sorted, with `boxes` from [`boxtree::build_boxes`]) from its
+/// `k` nearest neighbours. `None` when there are fewer than two distinct points.
+pub fn estimate(
+    positions: &[Vec3],
+    boxes: &[kiosk_core::Aabb],
+    k: usize,
+    need_normal: &(dyn Fn(usize) -> bool + Sync),
+) -> Option<Vec<Estimate>> {
     if positions.len() < 2 {
         return None;
     }
     let tree = BoxTree::new(positions, boxes);
     let k = k.clamp(2, positions.len() - 1);
     let centroid = positions.iter().fold(Vec3::ZERO, |a, p| a + *p) / positions.len() as f32;
-    let out = positions
+    let paths = boxtree::leaf_paths(positions.len());
+    let out = paths
         .par_iter()
-        .map(|&p| {
+        .flat_map_iter(|path| {
+            let leaf = path[path.len() - 1];
+            (leaf.lo..leaf.hi).map(move |i| (i, path))
+        })
+        .map(|(idx, path)| {
+            let p = positions[idx];
             let mut best = KBest::new(k + 1);
-            tree.knn(p, u32::MAX, &mut best, &|i| i);
+            tree.knn_from_leaf(p, path, &mut best, &|i| i);
             let neigh = &best.items()[1..]; // the first is the point itself (duplicates are merged)
             let dk = neigh.last().map_or(0.0, |x| x.0.sqrt());
+            let spacing = dk * (std::f32::consts::PI / k as f32).sqrt();
+            if !need_normal(idx) {
+                return Estimate { normal: Vec3::ZERO, spacing };
+            }
             let mean =
                 neigh.iter().fold(p, |a, &(_, i)| a + positions[i as usize]) / (neigh.len() + 1) as f32;
             let mut cov = Mat3::ZERO;
@@ -98,7 +113,7 @@ pub fn estimate(positions: &[Vec3], boxes: &[kiosk_core::Aabb], k: usize) -> Opt
             if n.dot(p - centroid) < 0.0 {
                 n = -n;
             }
-            Estimate { normal: n, spacing: dk * (std::f32::consts::PI / k as f32).sqrt() }
+            Estimate { normal: n, spacing }
         })
         .collect();
     Some(out)
@@ -141,7 +156,7 @@ mod tests {
         let mut pts: Vec<Vec3> =
             (0..2500).map(|i| Vec3::new((i % 50) as f32 * 0.01, (i / 50) as f32 * 0.01, 0.0)).collect();
         let boxes = sorted_tree(&mut pts);
-        let est = estimate(&pts, &boxes, 12).expect("enough points");
+        let est = estimate(&pts, &boxes, 12, &|_| true).expect("enough points");
         let interior: Vec<f32> = pts
             .iter()
             .zip(&est)

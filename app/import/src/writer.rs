@@ -111,6 +111,11 @@ impl StoreWriter {
         Ok(id)
     }
 
+    /// Nodes written so far (the id of the next node).
+    pub fn node_count(&self) -> u32 {
+        self.nodes.len() as u32
+    }
+
     /// A node already written.
     pub fn node(&self, id: u32) -> &NodeRecord {
         &self.nodes[id as usize]

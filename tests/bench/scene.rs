@@ -1,0 +1,415 @@
+//! `cargo bench --bench scene [-- --points N[,N…]] [--quick]`: the scene's numbers.
+//!
+//! Prints tables (and writes `target/bench/scene-tradeoff.svg`):
+//! 1. build throughput and peak RSS: a real scan and synthetic statue-like clouds (10 M by
+//!    default; `--points 10000000,50000000` for the 50 M figure), each built in a child process
+//!    so that its peak RSS is its own;
+//! 2. fine / coarse target: median µs per query, beside `kiddo`'s exact 8-NN on the same points
+//!    in the same run;
+//! 3. cut update: ms per frame for a moving camera at 1920×1080, 1 px;
+//! 4. speed against accuracy: node size M, search depth and K against query time and error.
+
+use glam::{DVec3, Vec3};
+use kiosk::MappedStore;
+use kiosk_core::scene::query::Level;
+use kiosk_core::{Cut, CutParams, QueryParams, ViewParams};
+use kiosk_import::source::{self, InputPoint, ReadOptions};
+use kiosk_import::{BuildParams, Builder};
+use plotters::prelude::*;
+use rand::{Rng, SeedableRng};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+type Rng64 = rand_pcg::Pcg64;
+
+fn main() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if let Some(i) = args.iter().position(|a| a == "--child-build") {
+        return child_build(&args[i + 1], args[i + 2].parse()?, &args[i + 3]);
+    }
+    let quick = args.iter().any(|a| a == "--quick");
+    let sizes: Vec<u64> = args
+        .iter()
+        .position(|a| a == "--points")
+        .and_then(|i| args.get(i + 1))
+        .map(|s| s.split(',').filter_map(|x| x.parse().ok()).collect())
+        .unwrap_or_else(|| vec![if quick { 1_000_000 } else { 10_000_000 }]);
+    let out_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench");
+    std::fs::create_dir_all(&out_dir)?;
+    let scan = real_scan();
+    println!(
+        "machine: {} cores; scan: {}",
+        std::thread::available_parallelism().map_or(0, |n| n.get()),
+        scan.display()
+    );
+
+    // 1. Build.
+    println!("\n## Build (release, default M = {})", BuildParams::default().node_points);
+    println!("| input | points | seconds | points/s | peak RSS MB | nodes | levels | store MB |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let scan_store = out_dir.join("scan.kstore");
+    child(&format!("scan:{}", scan.display()), 8192, &scan_store)?;
+    let mut synthetic_stores = Vec::new();
+    for &n in &sizes {
+        let p = out_dir.join(format!("synthetic-{n}.kstore"));
+        child(&format!("synthetic:{n}"), 8192, &p)?;
+        synthetic_stores.push((n, p));
+    }
+
+    // 2. Queries.
+    println!("\n## Fine and coarse targets on a 1 px cut (1920×1080), median µs per query");
+    println!("| model | cut points | fine K=8 µs | coarse K=16 µs | kiddo exact 8-NN µs | fine / kiddo |");
+    println!("|---|---|---|---|---|---|");
+    let mut models = vec![("scan".to_string(), kiosk::open_store(&scan_store)?)];
+    for (n, p) in &synthetic_stores {
+        models.push((format!("synthetic {} M", n / 1_000_000), kiosk::open_store(p)?));
+    }
+    for (name, store) in &models {
+        query_row(name, store);
+    }
+
+    // 3. Cut update.
+    println!("\n## Cut update, camera orbiting and zooming, 1920×1080, 1 px, budget 256 changes/frame");
+    println!("| model | frames | median ms | p95 ms | max ms | median nodes | median points |");
+    println!("|---|---|---|---|---|---|---|");
+    for (name, store) in &models {
+        cut_row(name, store);
+    }
+
+    // 4. Speed against accuracy.
+    tradeoff(&scan, &out_dir, quick)?;
+    Ok(())
+}
+
+fn real_scan() -> PathBuf {
+    let shared =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/scans/stanford-dragon/dragon_vrip.ply.gz");
+    if shared.exists() {
+        shared
+    } else {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/scans/stanford-dragon/dragon_vrip.ply.gz")
+    }
+}
+
+/// Runs one build in a child process and prints its row.
+fn child(input: &str, m: usize, out: &Path) -> anyhow::Result<()> {
+    let exe = std::env::current_exe()?;
+    let o = std::process::Command::new(exe)
+        .args(["--child-build", input, &m.to_string(), &out.display().to_string()])
+        .output()?;
+    if !o.status.success() {
+        anyhow::bail!("build of {input} failed: {}", String::from_utf8_lossy(&o.stderr));
+    }
+    print!("{}", String::from_utf8_lossy(&o.stdout));
+    Ok(())
+}
+
+fn peak_rss_mb() -> f64 {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    status
+        .lines()
+        .find(|l| l.starts_with("VmHWM:"))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .and_then(|kb| kb.parse::<f64>().ok())
+        .map_or(f64::NAN, |kb| kb / 1024.0)
+}
+
+/// A statue-like synthetic surface: a body of several displaced ellipsoids (torso, head, arms,
+/// legs) with fine "carvings" (high-frequency relief), sampled uniformly at random.
+pub fn synthetic_point(rng: &mut Rng64) -> InputPoint {
+    // (centre, radii) in metres: a 2 m figure.
+    const PARTS: [([f64; 3], [f64; 3]); 7] = [
+        ([0.0, 1.2, 0.0], [0.22, 0.35, 0.15]),
+        ([0.0, 1.72, 0.0], [0.11, 0.14, 0.12]),
+        ([-0.33, 1.25, 0.0], [0.06, 0.3, 0.06]),
+        ([0.33, 1.25, 0.0], [0.06, 0.3, 0.06]),
+        ([-0.11, 0.45, 0.0], [0.08, 0.45, 0.08]),
+        ([0.11, 0.45, 0.0], [0.08, 0.45, 0.08]),
+        ([0.0, 0.02, 0.0], [0.4, 0.03, 0.3]),
+    ];
+    let part = PARTS[rng.random_range(0..PARTS.len())];
+    let z: f64 = rng.random_range(-1.0..1.0);
+    let phi: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+    let s = (1.0 - z * z).sqrt();
+    let dir = DVec3::new(s * phi.cos(), z, s * phi.sin());
+    let relief = 1.0 + 0.01 * (60.0 * phi).sin() * (80.0 * z).sin() + 0.002 * (400.0 * phi).sin();
+    let r = DVec3::from_array(part.1);
+    let pos = DVec3::from_array(part.0) + dir * r * relief;
+    let normal = (dir / r).normalize_or_zero().as_vec3();
+    InputPoint { pos, normal, color: [0; 4], radius: 0.0 }
+}
+
+fn child_build(input: &str, m: usize, out: &str) -> anyhow::Result<()> {
+    let out = Path::new(out);
+    let params = BuildParams { node_points: m, ..BuildParams::default() };
+    let tmp = out.parent().unwrap_or(Path::new("."));
+    let start = Instant::now();
+    let mut b = Builder::new(params, tmp)?;
+    let label;
+    if let Some(n) = input.strip_prefix("synthetic:") {
+        let n: u64 = n.parse()?;
+        let mut rng = Rng64::seed_from_u64(42);
+        for _ in 0..n {
+            b.push(synthetic_point(&mut rng))?;
+        }
+        label = format!("synthetic statue {} M", n / 1_000_000);
+    } else {
+        let path = PathBuf::from(input.trim_start_matches("scan:"));
+        let mut err = None;
+        source::read_file(&path, &ReadOptions::default(), &mut |p| {
+            b.push(p).map_err(|e| {
+                err = Some(e.to_string());
+                "push".to_string()
+            })
+        })?;
+        label = path.file_name().map_or("scan".into(), |n| n.to_string_lossy().into_owned());
+    }
+    let s = b.finish(out, &mut |_| {})?;
+    let secs = start.elapsed().as_secs_f64();
+    println!(
+        "| {label} | {} | {secs:.2} | {:.0} | {:.0} | {} | {} | {:.0} |",
+        s.input_points,
+        s.input_points as f64 / secs,
+        peak_rss_mb(),
+        s.nodes,
+        s.levels,
+        s.bytes as f64 / 1e6
+    );
+    Ok(())
+}
+
+fn view_at(store: &MappedStore, eye: DVec3, target: DVec3) -> ViewParams {
+    let diag = store.bbox().diagonal();
+    ViewParams::look_at(store.origin(), eye, target, DVec3::Y, 0.8, (1920, 1080), (diag * 1e-4, diag * 10.0))
+        .expect("valid view")
+}
+
+fn mid_view(store: &MappedStore) -> (ViewParams, DVec3, f64) {
+    let c = store.to_model(store.bbox().center());
+    let diag = f64::from(store.bbox().diagonal());
+    (view_at(store, c + DVec3::new(0.3, 0.1, 0.5) * diag, c), c, diag)
+}
+
+fn converged_cut(store: &MappedStore, v: &ViewParams, tol: f32) -> Cut {
+    let mut cut = Cut::root(store);
+    cut.update(store, v, &CutParams { tolerance_px: tol, max_changes: usize::MAX, ..CutParams::default() });
+    cut
+}
+
+fn near_surface_queries(store: &MappedStore, cut: &Cut, n: usize, seed: u64) -> Vec<DVec3> {
+    let mut rng = Rng64::seed_from_u64(seed);
+    let diag = store.bbox().diagonal();
+    store
+        .sample_cut(cut, n, &mut rng.clone())
+        .into_iter()
+        .map(|p| {
+            let d = Vec3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            );
+            store.to_model(p + d * 0.02 * diag)
+        })
+        .collect()
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn pct(mut v: Vec<f64>, p: f64) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[((v.len() - 1) as f64 * p) as usize]
+}
+
+/// Median µs of `f` over the queries (each timed in a batch of 10 to beat timer resolution).
+fn time_each(qs: &[DVec3], mut f: impl FnMut(DVec3)) -> f64 {
+    let mut t = Vec::new();
+    for chunk in qs.chunks(10) {
+        let s = Instant::now();
+        for &q in chunk {
+            f(q);
+        }
+        t.push(s.elapsed().as_secs_f64() * 1e6 / chunk.len() as f64);
+    }
+    median(t)
+}
+
+fn query_row(name: &str, store: &MappedStore) {
+    let (v, _, _) = mid_view(store);
+    let cut = converged_cut(store, &v, 1.0);
+    let qs = near_surface_queries(store, &cut, 20_000, 1);
+    let params = QueryParams::default();
+    let fine = time_each(&qs, |q| {
+        std::hint::black_box(store.fine_target(&cut, q, &params));
+    });
+    let coarse = time_each(&qs, |q| {
+        std::hint::black_box(store.coarse_target(&cut, q, &params));
+    });
+    let pts: Vec<[f32; 3]> =
+        cut.nodes().iter().flat_map(|&n| store.splats(n).iter().map(|s| s.pos)).collect();
+    let kd: kiddo::immutable::float::kdtree::ImmutableKdTree<f32, u32, 3, 32> =
+        kiddo::immutable::float::kdtree::ImmutableKdTree::new_from_slice(&pts);
+    let kiddo_us = time_each(&qs, |q| {
+        let l = store.to_local(q).to_array();
+        std::hint::black_box(
+            kd.nearest_n::<kiddo::SquaredEuclidean>(&l, std::num::NonZero::new(8).expect("8")),
+        );
+    });
+    println!("| {name} | {} | {fine:.2} | {coarse:.2} | {kiddo_us:.2} | {:.2} |", pts.len(), fine / kiddo_us);
+}
+
+fn cut_row(name: &str, store: &MappedStore) {
+    let c = store.to_model(store.bbox().center());
+    let diag = f64::from(store.bbox().diagonal());
+    let params = CutParams::default();
+    let mut cut = Cut::root(store);
+    let (mut ms, mut nodes, mut points) = (Vec::new(), Vec::new(), Vec::new());
+    let frames = 600;
+    for f in 0..frames {
+        let a = f as f64 * 0.01;
+        let dist = 0.25 + 0.6 * (0.5 + 0.5 * (a * 1.3).cos());
+        let eye = c + DVec3::new(a.cos(), 0.3 * (a * 0.7).sin(), a.sin()) * diag * dist;
+        let v = view_at(store, eye, c);
+        let s = Instant::now();
+        let st = cut.update(store, &v, &params);
+        ms.push(s.elapsed().as_secs_f64() * 1e3);
+        nodes.push(st.nodes as f64);
+        points.push(st.points as f64);
+    }
+    println!(
+        "| {name} | {frames} | {:.3} | {:.3} | {:.3} | {:.0} | {:.0} |",
+        median(ms.clone()),
+        pct(ms.clone(), 0.95),
+        pct(ms, 1.0),
+        median(nodes),
+        median(points)
+    );
+}
+
+/// Error of the fine target: distance to the exact nearest full-resolution sample, in units of
+/// the local sample spacing.
+fn fine_error(store: &MappedStore, cut: &Cut, qs: &[DVec3], params: &QueryParams) -> (f64, f64) {
+    let errs: Vec<f64> = qs
+        .iter()
+        .map(|&q| {
+            let f = store.fine_target(cut, q, params).expect("finite");
+            let (_, node, _) = store.knn_local(Level::Full, store.to_local(q), 1, u32::MAX)[0];
+            let (_, exact) = store.nearest_sample(q).expect("finite");
+            (f.point - exact).length() / f64::from(store.node(node).spacing)
+        })
+        .collect();
+    (median(errs.clone()), pct(errs, 0.95))
+}
+
+fn tradeoff(scan: &Path, out_dir: &Path, quick: bool) -> anyhow::Result<()> {
+    let (pts, _) = source::read_all(scan, &ReadOptions::default())?;
+    let n_queries = if quick { 1000 } else { 5000 };
+    println!("\n## Speed against accuracy: node size M ({}; full-resolution cut)", scan.display());
+    println!(
+        "| M | build s | nodes | fine µs | error median (spacings) | error p95 | cut update ms (orbit) |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    let mut series_m = Vec::new();
+    let dir = tempfile::tempdir()?;
+    for m in [2048usize, 4096, 8192, 16384] {
+        let out = dir.path().join(format!("m{m}.kstore"));
+        let t = Instant::now();
+        let mut b = Builder::new(BuildParams { node_points: m, ..BuildParams::default() }, dir.path())?;
+        for p in &pts {
+            b.push(*p)?;
+        }
+        let s = b.finish(&out, &mut |_| {})?;
+        let build_s = t.elapsed().as_secs_f64();
+        let store = kiosk::open_store(&out)?;
+        let cut = Cut::leaves(&store);
+        let qs = near_surface_queries(&store, &cut, n_queries, 2);
+        let params = QueryParams::default();
+        let us = time_each(&qs, |q| {
+            std::hint::black_box(store.fine_target(&cut, q, &params));
+        });
+        let (e50, e95) = fine_error(&store, &cut, &qs, &params);
+        let mut cut_ms = Vec::new();
+        let (c, diag) = (store.to_model(store.bbox().center()), f64::from(store.bbox().diagonal()));
+        let mut moving = Cut::root(&store);
+        for f in 0..120 {
+            let a = f as f64 * 0.05;
+            let v = view_at(&store, c + DVec3::new(a.cos(), 0.2, a.sin()) * diag * 0.6, c);
+            let t = Instant::now();
+            moving.update(&store, &v, &CutParams::default());
+            cut_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        }
+        println!(
+            "| {m} | {build_s:.2} | {} | {us:.2} | {e50:.3} | {e95:.3} | {:.3} |",
+            s.nodes,
+            median(cut_ms)
+        );
+        series_m.push((format!("M={m}"), us, e95));
+    }
+
+    println!("\n## Speed against accuracy: search depth and K of the fine target (M = 8192)");
+    println!("| K | depth | µs per query | error median (spacings) | error p95 |");
+    println!("|---|---|---|---|---|");
+    let out = dir.path().join("m8192.kstore");
+    let store = kiosk::open_store(&out)?;
+    let cut = Cut::leaves(&store);
+    let qs = near_surface_queries(&store, &cut, n_queries, 3);
+    let mut series_k: Vec<(u32, Vec<(f64, f64)>)> = Vec::new();
+    for k in [1usize, 4, 8, 16] {
+        let mut line = Vec::new();
+        for depth in [2u32, 4, 6, 8, u32::MAX] {
+            let params = QueryParams { fine_k: k, fine_depth: depth, ..QueryParams::default() };
+            let us = time_each(&qs, |q| {
+                std::hint::black_box(store.fine_target(&cut, q, &params));
+            });
+            let (e50, e95) = fine_error(&store, &cut, &qs, &params);
+            let d = if depth == u32::MAX { "full".to_string() } else { depth.to_string() };
+            println!("| {k} | {d} | {us:.2} | {e50:.3} | {e95:.3} |");
+            line.push((us, e95));
+        }
+        series_k.push((k as u32, line));
+    }
+    let svg = out_dir.join("scene-tradeoff.svg");
+    plot(&svg, &series_m, &series_k)?;
+    println!("\nplot: {}", svg.display());
+    Ok(())
+}
+
+fn plot(path: &Path, m: &[(String, f64, f64)], k: &[(u32, Vec<(f64, f64)>)]) -> anyhow::Result<()> {
+    let root = SVGBackend::new(path, (900, 600)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let xmax =
+        k.iter().flat_map(|(_, l)| l.iter().map(|p| p.0)).chain(m.iter().map(|p| p.1)).fold(0.0, f64::max)
+            * 1.1;
+    let ymax =
+        k.iter().flat_map(|(_, l)| l.iter().map(|p| p.1)).chain(m.iter().map(|p| p.2)).fold(0.0, f64::max)
+            * 1.1;
+    let mut chart = ChartBuilder::on(&root)
+        .caption("Fine target: speed against accuracy (dragon, full-resolution cut)", ("sans-serif", 20))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..xmax, 0.0..ymax)?;
+    chart
+        .configure_mesh()
+        .x_desc("median µs per query")
+        .y_desc("p95 error (sample spacings from the exact nearest sample)")
+        .draw()?;
+    let colors = [RED, BLUE, GREEN, MAGENTA];
+    for (i, (kk, line)) in k.iter().enumerate() {
+        let c = colors[i % colors.len()];
+        chart
+            .draw_series(LineSeries::new(line.iter().copied(), c.stroke_width(2)))?
+            .label(format!("K={kk}, depth 2…full"))
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c));
+        chart.draw_series(line.iter().map(|&p| Circle::new(p, 4, c.filled())))?;
+    }
+    chart
+        .draw_series(m.iter().map(|(_, x, y)| TriangleMarker::new((*x, *y), 7, BLACK.filled())))?
+        .label("node size M = 2k…16k (K=8, full depth)")
+        .legend(|(x, y)| TriangleMarker::new((x + 10, y), 6, BLACK.filled()));
+    chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
+    root.present()?;
+    Ok(())
+}
