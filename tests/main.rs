@@ -1,4 +1,5 @@
 //! The integration tests of IsoKiosk: one binary (see `Cargo.toml`).
 
+mod camera;
 mod common;
 mod scene;

@@ -1,7 +1,7 @@
 //! The imperative shell of IsoKiosk: files, memory maps, the clock, the terminal. It feeds the
 //! pure core (`kiosk-core`) and the import edge (`kiosk-import`).
 
-pub mod bench;
+pub mod exhibit;
 pub mod import;
 
 use anyhow::Context;

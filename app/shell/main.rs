@@ -36,8 +36,24 @@ enum Command {
         /// The store file.
         store: PathBuf,
     },
-    /// Run a benchmark and print its table (see the README).
-    Bench(kiosk::bench::BenchArgs),
+    /// Replay a touch session without window or GPU and write its trace (JSON Lines).
+    Replay {
+        /// Exhibit directory (a store, or a scan imported on the fly).
+        #[arg(long)]
+        exhibit: PathBuf,
+        /// The session (touch events, JSON Lines).
+        #[arg(long)]
+        session: PathBuf,
+        /// Where to write the trace.
+        #[arg(long)]
+        trace: PathBuf,
+        /// Camera controller.
+        #[arg(long, default_value = "isocam")]
+        controller: String,
+        /// Seed (default: the session header's, else 0).
+        #[arg(long)]
+        seed: Option<u64>,
+    },
 }
 
 fn main() -> anyhow::Result<()> {
@@ -68,7 +84,31 @@ fn main() -> anyhow::Result<()> {
                 h.origin
             );
         }
-        Command::Bench(args) => kiosk::bench::run(&args)?,
+        Command::Replay { exhibit, session, trace, controller, seed } => {
+            let store = kiosk::exhibit::open_model(&exhibit)?;
+            let text = std::fs::read_to_string(&session)
+                .with_context(|| format!("cannot read session {}", session.display()))?;
+            let parsed = kiosk_core::session::Session::parse(&text)
+                .with_context(|| format!("{}", session.display()))?;
+            let settings = kiosk_core::replay::ReplaySettings {
+                controller: controller.parse().map_err(anyhow::Error::msg)?,
+                seed: seed.or(parsed.header.as_ref().and_then(|h| h.seed)).unwrap_or(0),
+                ..Default::default()
+            };
+            let result = kiosk_core::replay::run(&store, &parsed, &settings);
+            std::fs::write(&trace, result.to_jsonl(settings.seed, settings.fps))
+                .with_context(|| format!("cannot write trace {}", trace.display()))?;
+            let s = &result.summary;
+            println!(
+                "{}: {} frames, {} collisions, closest approach {:.4} (minimum {:.4}), {} menu requests",
+                trace.display(),
+                s.frames,
+                s.collisions,
+                s.min_surface_distance,
+                result.frames.first().map_or(0.0, |f| f.min_distance),
+                s.menu_requests
+            );
+        }
     }
     Ok(())
 }

@@ -5,8 +5,12 @@
 //! the clock: the shell hands it byte slices (memory maps) and timestamps. `clippy.toml` in this
 //! crate disallows the clock and the filesystem so the compiler guards that promise.
 
+pub mod camera;
 pub mod geom;
+pub mod gesture;
+pub mod replay;
 pub mod scene;
+pub mod session;
 
 pub use geom::Aabb;
 pub use scene::{

@@ -1,0 +1,433 @@
+//! Touch and mouse input → camera intents and menu requests (thesis 9.5).
+//!
+//! Multi-touch (9.5.1): one-finger drag = hover, joystick-like (the velocity is the vector from
+//! the first touch point to the finger); two-finger pan = hover; pinch = zoom; two-finger rotate
+//! = twist; one-finger long press = menu request (then the finger's direction from the press
+//! point selects, and the release picks or, near the centre, cancels).
+//! Single touch / mouse (9.5.2): the same, plus a zoom bar on the left edge (drag up = zoom in).
+//!
+//! Robust to real screens: reused finger ids, a `down` without `up` (treated as a new touch),
+//! `cancel`, ten fingers (the two oldest drive), equal timestamps, coordinates outside [0, 1]
+//! (clamped) and NaN (ignored). Nothing here panics.
+
+use crate::camera::Intent;
+use glam::DVec2;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// Every threshold of the device mapping, in one place.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GestureSettings {
+    /// Seconds a still finger must stay down to request the menu.
+    pub long_press_secs: f64,
+    /// Largest drift (fraction of the screen height) that still counts as still.
+    pub long_press_slop: f64,
+    /// Joystick dead zone around the first touch point (fraction of the screen height).
+    pub dead_zone: f64,
+    /// Joystick gain: viewport heights per second of hover per unit of finger offset.
+    pub hover_speed: f64,
+    /// Largest joystick offset taken into account (fraction of the screen height).
+    pub max_offset: f64,
+    /// Two-finger pan gain (viewport heights of hover per screen height moved).
+    pub pan_gain: f64,
+    /// Pinch gain: zoom (log distance) per log of the finger-distance ratio.
+    pub pinch_gain: f64,
+    /// Zoom bar: width of the left-edge bar (fraction of the screen width).
+    pub zoom_bar_width: f64,
+    /// Zoom bar gain: zoom (log distance) per screen height dragged.
+    pub zoom_bar_gain: f64,
+    /// Menu: releasing within this distance of the press point cancels.
+    pub menu_cancel_radius: f64,
+    /// Aspect ratio (width / height) of the controller surface.
+    pub aspect: f64,
+}
+
+impl Default for GestureSettings {
+    fn default() -> Self {
+        Self {
+            long_press_secs: 0.7,
+            long_press_slop: 0.015,
+            dead_zone: 0.02,
+            hover_speed: 1.5,
+            max_offset: 0.4,
+            pan_gain: 1.0,
+            pinch_gain: 1.0,
+            zoom_bar_width: 0.08,
+            zoom_bar_gain: 3.0,
+            menu_cancel_radius: 0.05,
+            aspect: 16.0 / 9.0,
+        }
+    }
+}
+
+/// Kind of touch event (DESIGN §11).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TouchKind {
+    /// A finger lands.
+    Down,
+    /// A finger moves.
+    Move,
+    /// A finger lifts.
+    Up,
+    /// The system cancels the touch.
+    Cancel,
+}
+
+/// One touch event: `x`, `y` normalised to the controller surface, origin top-left.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TouchEvent {
+    /// Seconds since the session start.
+    pub t: f64,
+    /// Kind.
+    pub ev: TouchKind,
+    /// Finger id.
+    pub id: i64,
+    /// Horizontal position in [0, 1].
+    pub x: f64,
+    /// Vertical position in [0, 1] (down).
+    pub y: f64,
+}
+
+/// Something the menu logic must know (the recommender and the radial menu use it later).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum MenuEvent {
+    /// A long press asked for the menu at this point.
+    Open {
+        /// Press point.
+        at: (f64, f64),
+    },
+    /// The finger points from the press point in this direction (radians, 0 = up, clockwise).
+    Point {
+        /// Direction.
+        angle: f64,
+    },
+    /// Released away from the centre: select in this direction.
+    Select {
+        /// Direction.
+        angle: f64,
+    },
+    /// Released near the centre, or cancelled.
+    Cancel,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Finger {
+    start: DVec2,
+    pos: DVec2,
+    down_t: f64,
+    order: u64,
+    /// Largest distance from the start so far.
+    drift: f64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Mode {
+    Idle,
+    /// One finger: joystick hover (or long-press candidate).
+    Joystick,
+    /// One finger in the zoom bar.
+    ZoomBar {
+        last_y: f64,
+    },
+    /// Two fingers: pan, pinch, rotate.
+    Two {
+        centroid: DVec2,
+        dist: f64,
+        angle: f64,
+    },
+    /// The radial menu is open.
+    Menu {
+        origin: DVec2,
+    },
+}
+
+/// The gesture recogniser.
+#[derive(Clone, Debug)]
+pub struct Gestures {
+    /// Settings.
+    pub settings: GestureSettings,
+    fingers: BTreeMap<i64, Finger>,
+    mode: Mode,
+    next_order: u64,
+    pending: Intent,
+    menu: Vec<MenuEvent>,
+    was_active: bool,
+}
+
+impl Gestures {
+    /// A recogniser with these settings.
+    pub fn new(settings: GestureSettings) -> Self {
+        Self {
+            settings,
+            fingers: BTreeMap::new(),
+            mode: Mode::Idle,
+            next_order: 0,
+            pending: Intent::default(),
+            menu: Vec::new(),
+            was_active: false,
+        }
+    }
+
+    /// Whether any finger is down.
+    pub fn active(&self) -> bool {
+        !self.fingers.is_empty()
+    }
+
+    /// Whether the radial menu is open.
+    pub fn menu_open(&self) -> bool {
+        matches!(self.mode, Mode::Menu { .. })
+    }
+
+    /// Screen point in height units (x scaled by the aspect ratio), clamped to the surface.
+    fn point(&self, x: f64, y: f64) -> DVec2 {
+        DVec2::new(x.clamp(0.0, 1.0) * self.settings.aspect, y.clamp(0.0, 1.0))
+    }
+
+    /// The two oldest fingers.
+    fn two(&self) -> Option<(Finger, Finger)> {
+        let mut v: Vec<Finger> = self.fingers.values().copied().collect();
+        v.sort_by_key(|f| f.order);
+        (v.len() >= 2).then(|| (v[0], v[1]))
+    }
+
+    fn two_state(&self) -> Option<Mode> {
+        let (a, b) = self.two()?;
+        let d = b.pos - a.pos;
+        Some(Mode::Two { centroid: (a.pos + b.pos) * 0.5, dist: d.length(), angle: d.y.atan2(d.x) })
+    }
+
+    /// Feeds one event.
+    pub fn event(&mut self, e: &TouchEvent) {
+        if !(e.x.is_finite() && e.y.is_finite() && e.t.is_finite()) {
+            return;
+        }
+        let p = self.point(e.x, e.y);
+        match e.ev {
+            TouchKind::Down => {
+                // A `down` for a finger we believe is down: its `up` was lost; start it afresh.
+                let order = self.next_order;
+                self.next_order += 1;
+                self.fingers.insert(e.id, Finger { start: p, pos: p, down_t: e.t, order, drift: 0.0 });
+                self.regroup(e.t);
+            }
+            TouchKind::Move => {
+                let Some(f) = self.fingers.get_mut(&e.id) else { return };
+                f.pos = p;
+                f.drift = f.drift.max((p - f.start).length());
+                self.moved(e.id);
+            }
+            TouchKind::Up => {
+                if self.fingers.remove(&e.id).is_none() {
+                    return;
+                }
+                if let Mode::Menu { origin } = self.mode {
+                    let d = p - origin;
+                    self.menu.push(if d.length() <= self.settings.menu_cancel_radius {
+                        MenuEvent::Cancel
+                    } else {
+                        MenuEvent::Select { angle: screen_angle(d) }
+                    });
+                }
+                self.regroup(e.t);
+            }
+            TouchKind::Cancel => {
+                if self.fingers.remove(&e.id).is_none() {
+                    return;
+                }
+                if self.menu_open() {
+                    self.menu.push(MenuEvent::Cancel);
+                }
+                self.regroup(e.t);
+            }
+        }
+    }
+
+    /// Chooses the mode after fingers were added or removed.
+    fn regroup(&mut self, _t: f64) {
+        self.mode = match self.fingers.len() {
+            0 => Mode::Idle,
+            1 => {
+                if self.menu_open() {
+                    self.mode
+                } else {
+                    let f = *self.fingers.values().next().unwrap_or(&Finger {
+                        start: DVec2::ZERO,
+                        pos: DVec2::ZERO,
+                        down_t: 0.0,
+                        order: 0,
+                        drift: 0.0,
+                    });
+                    if f.start.x <= self.settings.zoom_bar_width * self.settings.aspect
+                        && self.fingers.len() == 1
+                        && f.pos == f.start
+                    {
+                        Mode::ZoomBar { last_y: f.pos.y }
+                    } else {
+                        // A finger left behind after a two-finger gesture restarts the joystick
+                        // from where it is, so the camera does not jump.
+                        if let Some(f) = self.fingers.values_mut().next() {
+                            f.start = f.pos;
+                        }
+                        Mode::Joystick
+                    }
+                }
+            }
+            _ => {
+                if self.menu_open() {
+                    self.menu.push(MenuEvent::Cancel);
+                }
+                self.two_state().unwrap_or(Mode::Idle)
+            }
+        };
+    }
+
+    fn moved(&mut self, id: i64) {
+        match self.mode {
+            Mode::ZoomBar { last_y } => {
+                if let Some(f) = self.fingers.get(&id) {
+                    // Drag up (y decreases) = zoom in.
+                    self.pending.zoom += (last_y - f.pos.y) * self.settings.zoom_bar_gain;
+                    self.mode = Mode::ZoomBar { last_y: f.pos.y };
+                }
+            }
+            Mode::Two { centroid, dist, angle } => {
+                let Some(Mode::Two { centroid: c2, dist: d2, angle: a2 }) = self.two_state() else { return };
+                let dc = c2 - centroid;
+                // Move the camera with the fingers' centroid: right = +x, up = −y on screen.
+                self.pending.pan.0 += dc.x * self.settings.pan_gain;
+                self.pending.pan.1 -= dc.y * self.settings.pan_gain;
+                if dist > 1e-6 && d2 > 1e-6 {
+                    self.pending.zoom += (d2 / dist).ln() * self.settings.pinch_gain;
+                }
+                let mut da = a2 - angle;
+                if da > std::f64::consts::PI {
+                    da -= std::f64::consts::TAU;
+                } else if da < -std::f64::consts::PI {
+                    da += std::f64::consts::TAU;
+                }
+                self.pending.twist -= da;
+                self.mode = Mode::Two { centroid: c2, dist: d2, angle: a2 };
+            }
+            Mode::Menu { origin } => {
+                if let Some(f) = self.fingers.get(&id) {
+                    let d = f.pos - origin;
+                    if d.length() > self.settings.menu_cancel_radius {
+                        self.menu.push(MenuEvent::Point { angle: screen_angle(d) });
+                    }
+                }
+            }
+            Mode::Idle | Mode::Joystick => {}
+        }
+    }
+
+    /// Advances to `now` by `dt` seconds and returns the frame's intent; menu events are
+    /// collected with [`Gestures::take_menu_events`].
+    pub fn frame(&mut self, now: f64, dt: f64) -> Intent {
+        let s = self.settings;
+        if let Mode::Joystick = self.mode
+            && let Some(f) = self.fingers.values().next().copied()
+        {
+            if f.drift <= s.long_press_slop && now - f.down_t >= s.long_press_secs {
+                self.mode = Mode::Menu { origin: f.start };
+                self.menu.push(MenuEvent::Open { at: (f.start.x / s.aspect, f.start.y) });
+            } else {
+                let off = f.pos - f.start;
+                let len = off.length();
+                if len > s.dead_zone && dt.is_finite() && dt > 0.0 {
+                    let eff = (len - s.dead_zone).min(s.max_offset) / len;
+                    let v = off * eff * s.hover_speed;
+                    // Finger right → camera right; finger up (y decreasing) → camera up.
+                    self.pending.hover.0 += v.x * dt;
+                    self.pending.hover.1 -= v.y * dt;
+                }
+            }
+        }
+        let mut out = std::mem::take(&mut self.pending);
+        let active = self.active();
+        out.end = self.was_active && !active;
+        self.was_active = active;
+        out
+    }
+
+    /// Menu events since the last call.
+    pub fn take_menu_events(&mut self) -> Vec<MenuEvent> {
+        std::mem::take(&mut self.menu)
+    }
+}
+
+/// Direction of a screen displacement: 0 = up, clockwise, in [0, 2π).
+fn screen_angle(d: DVec2) -> f64 {
+    d.x.atan2(-d.y).rem_euclid(std::f64::consts::TAU)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ev(t: f64, ev: TouchKind, id: i64, x: f64, y: f64) -> TouchEvent {
+        TouchEvent { t, ev, id, x, y }
+    }
+
+    #[test]
+    fn joystick_hover_follows_the_offset_from_the_first_touch() {
+        let mut g = Gestures::new(GestureSettings::default());
+        g.event(&ev(0.0, TouchKind::Down, 1, 0.5, 0.5));
+        g.event(&ev(0.1, TouchKind::Move, 1, 0.6, 0.5));
+        let i = g.frame(0.1, 1.0 / 60.0);
+        assert!(i.hover.0 > 0.0 && i.hover.1 == 0.0);
+        // Held still away from the start: the camera keeps moving (joystick).
+        let j = g.frame(0.2, 1.0 / 60.0);
+        assert_eq!(i.hover, j.hover);
+    }
+
+    #[test]
+    fn pinch_zooms_and_rotation_twists() {
+        let mut g = Gestures::new(GestureSettings::default());
+        g.event(&ev(0.0, TouchKind::Down, 1, 0.4, 0.5));
+        g.event(&ev(0.0, TouchKind::Down, 2, 0.6, 0.5));
+        g.event(&ev(0.1, TouchKind::Move, 2, 0.7, 0.5));
+        let i = g.frame(0.1, 1.0 / 60.0);
+        assert!(i.zoom > 0.0, "{i:?}");
+        g.event(&ev(0.2, TouchKind::Move, 2, 0.55, 0.65));
+        let j = g.frame(0.2, 1.0 / 60.0);
+        assert!(j.twist != 0.0);
+    }
+
+    #[test]
+    fn long_press_opens_the_menu_and_release_selects_by_direction() {
+        let mut g = Gestures::new(GestureSettings::default());
+        g.event(&ev(0.0, TouchKind::Down, 1, 0.5, 0.5));
+        let mut t = 0.0;
+        while t < 1.0 {
+            g.frame(t, 1.0 / 60.0);
+            t += 1.0 / 60.0;
+        }
+        assert!(g.menu_open());
+        assert!(matches!(g.take_menu_events()[..], [MenuEvent::Open { .. }]));
+        g.event(&ev(1.1, TouchKind::Move, 1, 0.5, 0.3));
+        g.event(&ev(1.2, TouchKind::Up, 1, 0.5, 0.3));
+        let evs = g.take_menu_events();
+        assert!(matches!(evs.last(), Some(MenuEvent::Select { angle }) if angle.abs() < 1e-9), "{evs:?}");
+        assert!(!g.menu_open());
+    }
+
+    #[test]
+    fn garbage_is_ignored_or_clamped() {
+        let mut g = Gestures::new(GestureSettings::default());
+        g.event(&ev(0.0, TouchKind::Move, 9, 0.5, 0.5));
+        g.event(&ev(0.0, TouchKind::Up, 9, 0.5, 0.5));
+        g.event(&ev(0.0, TouchKind::Down, 1, f64::NAN, 0.5));
+        g.event(&ev(0.0, TouchKind::Down, 1, -3.0, 7.0));
+        g.event(&ev(0.0, TouchKind::Down, 1, 0.5, 0.5));
+        for id in 2..12 {
+            g.event(&ev(0.0, TouchKind::Down, id, 0.1 * id as f64, 0.5));
+        }
+        let i = g.frame(0.0, 1.0 / 60.0);
+        assert!(i.hover.0.is_finite() && i.zoom.is_finite() && i.twist.is_finite());
+        for id in 1..12 {
+            g.event(&ev(0.1, TouchKind::Cancel, id, 0.5, 0.5));
+        }
+        assert!(!g.active());
+    }
+}

@@ -1,0 +1,54 @@
+//! Exhibits on disk: a directory holding a model, as a store (`*.kstore`) or a scan
+//! (`*.ply`, `*.ply.gz`, `*.obj`) that is imported on first use into a cache.
+
+use crate::MappedStore;
+use crate::import::{ImportOptions, import};
+use anyhow::Context;
+use std::path::{Path, PathBuf};
+
+/// Finds the model of an exhibit directory: its store if it has one, else its scan.
+pub fn model_file(dir: &Path) -> anyhow::Result<PathBuf> {
+    let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("cannot read exhibit directory {}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .collect();
+    entries.sort();
+    let name = |p: &PathBuf| p.file_name().and_then(|n| n.to_str()).unwrap_or("").to_ascii_lowercase();
+    if let Some(s) = entries.iter().find(|p| name(p).ends_with(".kstore")) {
+        return Ok(s.clone());
+    }
+    entries
+        .into_iter()
+        .find(|p| {
+            let n = name(p);
+            n.ends_with(".ply") || n.ends_with(".ply.gz") || n.ends_with(".obj") || n.ends_with(".obj.gz")
+        })
+        .with_context(|| format!("{}: no model (*.kstore, *.ply, *.ply.gz or *.obj)", dir.display()))
+}
+
+/// Opens an exhibit's model, importing a scan into the cache when needed (the cache key is the
+/// scan's path, size and modification time, so an edited scan is imported again).
+pub fn open_model(dir: &Path) -> anyhow::Result<MappedStore> {
+    let file = model_file(dir)?;
+    if file.extension().is_some_and(|e| e == "kstore") {
+        return crate::open_store(&file);
+    }
+    let meta = std::fs::metadata(&file)?;
+    let modified = meta.modified().ok().and_then(|m| m.duration_since(std::time::UNIX_EPOCH).ok());
+    let key = format!(
+        "{}-{}-{}",
+        file.canonicalize().unwrap_or(file.clone()).display(),
+        meta.len(),
+        modified.map_or(0, |d| d.as_secs())
+    );
+    let hash = crc32fast::hash(key.as_bytes());
+    let cache = std::env::temp_dir().join("isokiosk-cache");
+    std::fs::create_dir_all(&cache)?;
+    let stem = file.file_name().and_then(|n| n.to_str()).unwrap_or("model").replace('.', "_");
+    let store = cache.join(format!("{stem}-{hash:08x}.kstore"));
+    if let Ok(s) = crate::open_store(&store) {
+        return Ok(s);
+    }
+    import(&file, &store, &ImportOptions::default())?;
+    crate::open_store(&store)
+}

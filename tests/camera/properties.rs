@@ -1,0 +1,95 @@
+//! Properties: random gesture sequences never bring the eye closer than the minimum distance,
+//! never produce NaN; long hovers keep the isolevel.
+
+use super::{Script, assert_safe, run};
+use crate::common;
+use kiosk_core::camera::{IsoCam, IsoCamSettings, SceneRef};
+use kiosk_core::replay::ControllerKind;
+use proptest::prelude::*;
+use std::sync::OnceLock;
+
+fn bunny() -> &'static common::Built {
+    static B: OnceLock<common::Built> = OnceLock::new();
+    B.get_or_init(|| {
+        common::build(&common::read("scans/stanford-bunny/bun_zipper_res2.ply"), common::small_nodes())
+    })
+}
+
+#[derive(Clone, Debug)]
+enum Gesture {
+    Joystick { dx: f64, dy: f64, secs: f64 },
+    Pinch { d0: f64, d1: f64, secs: f64 },
+    Tap { x: f64, y: f64 },
+    Wild { x: f64, y: f64 },
+}
+
+fn gesture() -> impl Strategy<Value = Gesture> {
+    prop_oneof![
+        (-0.5..0.5f64, -0.5..0.5f64, 0.05..1.5f64).prop_map(|(dx, dy, secs)| Gesture::Joystick {
+            dx,
+            dy,
+            secs
+        }),
+        (0.02..0.95f64, 0.02..0.95f64, 0.05..1.0f64).prop_map(|(d0, d1, secs)| Gesture::Pinch {
+            d0,
+            d1,
+            secs
+        }),
+        (0.0..1.0f64, 0.0..1.0f64).prop_map(|(x, y)| Gesture::Tap { x, y }),
+        (-10.0..10.0f64, -10.0..10.0f64).prop_map(|(x, y)| Gesture::Wild { x, y }),
+    ]
+}
+
+fn script(gs: &[Gesture]) -> Script {
+    let mut s = Script::new();
+    for g in gs {
+        s = match *g {
+            Gesture::Joystick { dx, dy, secs } => s.joystick(1, (dx, dy), secs),
+            Gesture::Pinch { d0, d1, secs } => s.pinch(d0, d1, secs),
+            Gesture::Tap { x, y } => s.down(3, x, y).wait(0.05).up(3, x, y),
+            Gesture::Wild { x, y } => s.down(4, 0.5, 0.5).drag(&[(4, (0.5, 0.5), (x, y))], 0.2).up(4, x, y),
+        }
+        .wait(0.05);
+    }
+    s
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, .. ProptestConfig::default() })]
+
+    #[test]
+    fn random_gestures_never_collide_nor_produce_nan(gs in prop::collection::vec(gesture(), 1..6)) {
+        let trace = run(&bunny().store, &script(&gs), ControllerKind::IsoCam);
+        assert_safe(&trace);
+    }
+}
+
+#[test]
+fn hundred_thousand_hover_steps_keep_the_isolevel() {
+    let b = common::build(&common::read("scans/demosthenes/demosthenes-low-res.obj"), common::small_nodes());
+    let cut = kiosk_core::Cut::leaves(&b.store);
+    let scene = SceneRef { store: &b.store, cut: &cut };
+    let cam = kiosk_core::replay::initial_camera(&b.store, 0.8, glam::DVec3::Y);
+    let settings = IsoCamSettings::for_model(scene.diagonal());
+    let mut iso = IsoCam::new(scene, cam, settings);
+    let level = iso.isolevel();
+    let mut worst: f64 = 0.0;
+    let mut steps = 0u64;
+    let mut k = 0u64;
+    while steps < 100_000 {
+        // A slowly turning direction: around and over the model.
+        let a = k as f64 * 0.002;
+        iso.hover(scene, (0.01 * a.cos(), 0.01 * (0.3 * a).sin()));
+        steps += u64::from(iso.last.steps);
+        worst = worst.max(iso.last.iso_error);
+        k += 1;
+        let f = scene.store.fine_target(scene.cut, iso.camera().eye, &settings.query).expect("finite");
+        let d = (iso.camera().eye - f.point).length();
+        assert!(
+            (d - level).abs() <= settings.reproject_tolerance * level * 1.0001,
+            "drift: {d} vs {level} after {steps} steps"
+        );
+    }
+    assert!(worst <= settings.reproject_tolerance);
+    assert_eq!(iso.isolevel(), level);
+}
