@@ -337,3 +337,33 @@ fn replay_is_byte_identical_and_the_cli_writes_the_trace() {
     );
     let _ = ReplaySettings::default();
 }
+
+#[test]
+fn goto_eases_in_and_out_and_never_passes_through_the_model() {
+    use kiosk_core::camera::{Camera, GoTo, SceneRef};
+    let b = scan("scans/stanford-bunny/bun_zipper.ply");
+    let cut = kiosk_core::Cut::leaves(&b.store);
+    let scene = SceneRef { store: &b.store, cut: &cut };
+    let c = scene.center();
+    let diag = scene.diagonal();
+    // From the front to the back: the straight line crosses the bunny.
+    let from = Camera { eye: c + DVec3::Z * 0.6 * diag, target: c, up: DVec3::Y, fov_y: 0.8 };
+    let to = Camera { eye: c - DVec3::Z * 0.6 * diag, target: c, up: DVec3::Y, fov_y: 0.8 };
+    let anim = GoTo { from, to, start: 1.0, duration: 2.0 };
+    let min = 0.01 * diag;
+    let mut eyes = Vec::new();
+    for k in 0..=180 {
+        let t = 1.0 + k as f64 / 60.0;
+        let cam = anim.camera_at(t, scene, min);
+        assert!(cam.is_finite());
+        let (d, _) = b.store.nearest_sample(cam.eye).expect("finite");
+        assert!(d >= min * 0.99, "go-to passed within {d} of the surface at t={t}");
+        eyes.push(cam.eye);
+    }
+    assert!((eyes[0] - from.eye).length() < 1e-12);
+    assert!(anim.done(3.0) && !anim.done(2.9));
+    assert_eq!(anim.camera_at(3.5, scene, min).target, to.target);
+    // Ease in and out: slow at both ends, faster in the middle.
+    let speed = |k: usize| (eyes[k + 1] - eyes[k]).length();
+    assert!(speed(0) < 0.2 * speed(60) && speed(118) < 0.2 * speed(60));
+}
