@@ -321,6 +321,25 @@ impl Gestures {
         }
     }
 
+    /// Mouse mapping (9.5.2): the right button asks for the menu at once where the pointer is;
+    /// the next moves of the pressed left button (finger `id`) select, its release picks.
+    pub fn menu_button(&mut self, x: f64, y: f64) {
+        if !(x.is_finite() && y.is_finite()) || self.menu_open() {
+            return;
+        }
+        let p = self.point(x, y);
+        self.mode = Mode::Menu { origin: p };
+        self.menu.push(MenuEvent::Open { at: (p.x / self.settings.aspect, p.y) });
+    }
+
+    /// Closes the menu without a selection (e.g. the right button again, or Escape).
+    pub fn menu_cancel(&mut self) {
+        if self.menu_open() {
+            self.menu.push(MenuEvent::Cancel);
+            self.mode = if self.fingers.is_empty() { Mode::Idle } else { Mode::Joystick };
+        }
+    }
+
     /// Advances to `now` by `dt` seconds and returns the frame's intent; menu events are
     /// collected with [`Gestures::take_menu_events`].
     pub fn frame(&mut self, now: f64, dt: f64) -> Intent {
@@ -410,6 +429,25 @@ mod tests {
         let evs = g.take_menu_events();
         assert!(matches!(evs.last(), Some(MenuEvent::Select { angle }) if angle.abs() < 1e-9), "{evs:?}");
         assert!(!g.menu_open());
+    }
+
+    #[test]
+    fn right_button_opens_the_menu_and_a_drag_selects() {
+        let mut g = Gestures::new(GestureSettings::default());
+        g.menu_button(0.5, 0.5);
+        assert!(g.menu_open());
+        g.event(&ev(0.1, TouchKind::Down, 0, 0.5, 0.5));
+        g.event(&ev(0.2, TouchKind::Move, 0, 0.7, 0.5));
+        g.event(&ev(0.3, TouchKind::Up, 0, 0.7, 0.5));
+        let evs = g.take_menu_events();
+        assert!(
+            matches!(evs.last(), Some(MenuEvent::Select { angle }) if (angle - std::f64::consts::FRAC_PI_2).abs() < 1e-9),
+            "{evs:?}"
+        );
+        g.menu_button(0.5, 0.5);
+        g.menu_cancel();
+        assert!(!g.menu_open());
+        assert!(matches!(g.take_menu_events()[..], [MenuEvent::Open { .. }, MenuEvent::Cancel]));
     }
 
     #[test]
