@@ -3,3 +3,4 @@
 mod camera;
 mod common;
 mod scene;
+mod story;

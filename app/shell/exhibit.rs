@@ -52,3 +52,35 @@ pub fn open_model(dir: &Path) -> anyhow::Result<MappedStore> {
     import(&file, &store, &ImportOptions::default())?;
     crate::open_store(&store)
 }
+
+/// Reads an exhibit's information graph (`graph.xml`), if it has one. Problems are returned
+/// alongside (the kiosk logs them and shows the rest); an unreadable graph is an error.
+pub fn open_graph(
+    dir: &Path,
+) -> anyhow::Result<Option<(kiosk_core::graph::InfoGraph, Vec<kiosk_core::graph::Problem>)>> {
+    let path = dir.join("graph.xml");
+    if !path.exists() {
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
+    let (graph, mut problems) =
+        kiosk_core::graph::InfoGraph::from_xml(&text).with_context(|| format!("{}", path.display()))?;
+    let probe = |p: &str| -> Result<Option<(u32, u32)>, String> {
+        let f = dir.join(p);
+        if !f.exists() {
+            return Err("file not found".into());
+        }
+        let lower = p.to_ascii_lowercase();
+        if lower.ends_with(".png") || lower.ends_with(".jpg") || lower.ends_with(".jpeg") {
+            return image_size(&f).map(Some);
+        }
+        Ok(None)
+    };
+    problems.extend(graph.check_files(16.0 / 9.0, &probe));
+    Ok(Some((graph, problems)))
+}
+
+/// Width and height of an image file (read from its header).
+fn image_size(path: &Path) -> Result<(u32, u32), String> {
+    image::image_dimensions(path).map_err(|e| e.to_string())
+}

@@ -95,7 +95,20 @@ fn main() -> anyhow::Result<()> {
                 seed: seed.or(parsed.header.as_ref().and_then(|h| h.seed)).unwrap_or(0),
                 ..Default::default()
             };
-            let result = kiosk_core::replay::run(&store, &parsed, &settings);
+            let graph = match kiosk::exhibit::open_graph(&exhibit) {
+                Ok(Some((g, problems))) => {
+                    for p in &problems {
+                        eprintln!("warning: {}: {p}", exhibit.join("graph.xml").display());
+                    }
+                    Some(g)
+                }
+                Ok(None) => None,
+                Err(e) => {
+                    eprintln!("warning: {e:#}; replaying without recommendations");
+                    None
+                }
+            };
+            let result = kiosk_core::replay::run_story(&store, &parsed, &settings, graph.as_ref());
             std::fs::write(&trace, result.to_jsonl(settings.seed, settings.fps))
                 .with_context(|| format!("cannot write trace {}", trace.display()))?;
             let s = &result.summary;

@@ -336,6 +336,11 @@ impl Gestures {
     pub fn menu_cancel(&mut self) {
         if self.menu_open() {
             self.menu.push(MenuEvent::Cancel);
+            // The fingers still down are spent: no second long press, no joystick jump.
+            for f in self.fingers.values_mut() {
+                f.drift = f64::INFINITY;
+                f.start = f.pos;
+            }
             self.mode = if self.fingers.is_empty() { Mode::Idle } else { Mode::Joystick };
         }
     }

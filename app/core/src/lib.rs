@@ -8,6 +8,8 @@
 pub mod camera;
 pub mod geom;
 pub mod gesture;
+pub mod graph;
+pub mod recommend;
 pub mod replay;
 pub mod scene;
 pub mod session;

@@ -1,0 +1,581 @@
+//! The information graph (thesis 11.2–11.3.1; DESIGN §6): annotated views (nodes) and their
+//! dependencies (edges), read from and written to XML.
+//!
+//! Format (version 1), paths relative to the graph file; every text and media element may be
+//! given per language (`lang`; without it, the default language):
+//! ```xml
+//! <infograph version="1" default-lang="en">
+//!   <node id="intro" importance="1.0">
+//!     <view eye="0 1 3" target="0 1 0" up="0 1 0" fov="0.8"/>
+//!     <title lang="en">The bust</title>
+//!     <title lang="it">Il busto</title>
+//!     <text lang="en">Demosthenes, Athenian orator…</text>
+//!     <overlay lang="en" src="overlays/intro.png"/>
+//!     <narration lang="en" src="audio/intro-en.ogg"/>
+//!     <thumbnail src="thumbs/intro.png"/>
+//!     <roi mask="roi/intro.png" min="-0.2 0.8 -0.1" max="0.2 1.2 0.2"/>
+//!   </node>
+//!   <edge from="intro" to="beard" weight="1.0"/>
+//! </infograph>
+//! ```
+//! Loading is lenient, as a kiosk must keep showing what is valid: structural problems drop the
+//! offending node or edge and are reported with the node's id; only unreadable XML or an unknown
+//! version is fatal.
+
+use crate::camera::{Camera, orthonormal_up};
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, BTreeSet};
+
+/// The graph format version this build reads and writes.
+pub const GRAPH_VERSION: u32 = 1;
+
+/// Edge weight of a mandatory dependency.
+pub const MANDATORY: f64 = 1.0;
+
+/// Texts or file paths per language.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct PerLanguage(pub BTreeMap<String, String>);
+
+impl PerLanguage {
+    /// The value in `lang`, else in `default`, else any.
+    pub fn get(&self, lang: &str, default: &str) -> Option<&str> {
+        self.0
+            .get(lang)
+            .or_else(|| self.0.get(default))
+            .or_else(|| self.0.values().next())
+            .map(String::as_str)
+    }
+
+    /// Whether no language has a value.
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+}
+
+/// An annotated view.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Node {
+    /// Stable id.
+    pub id: String,
+    /// The view (model coordinates).
+    pub view: Camera,
+    /// Author importance γ ∈ [0, 1].
+    pub importance: f64,
+    /// Title per language.
+    pub title: PerLanguage,
+    /// Text per language.
+    pub text: PerLanguage,
+    /// Overlay image per language (PNG with alpha or SVG; path relative to the graph file).
+    pub overlay: PerLanguage,
+    /// Narration audio per language.
+    pub narration: PerLanguage,
+    /// Thumbnail image.
+    pub thumbnail: Option<String>,
+    /// Region-of-interest mask image (absent: the whole view).
+    pub roi_mask: Option<String>,
+    /// Bounding box of the model points under the ROI (computed by the authoring tool).
+    pub roi_bbox: Option<(DVec3, DVec3)>,
+}
+
+/// A dependency: `from` should be shown before `to`, with weight ω ∈ [0, 1].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Edge {
+    /// Predecessor (node index).
+    pub from: usize,
+    /// Dependent node (node index).
+    pub to: usize,
+    /// ω: 1 mandatory, 0.8 strong, 0.2 weak in the paper's dataset.
+    pub weight: f64,
+}
+
+/// A validated information graph.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct InfoGraph {
+    /// Language used when a text lacks the visitor's.
+    pub default_lang: String,
+    /// Nodes.
+    pub nodes: Vec<Node>,
+    /// Edges.
+    pub edges: Vec<Edge>,
+}
+
+/// Reads a file named by the graph: `Ok(Some((w, h)))` for an image, `Ok(None)` for another
+/// existing file, `Err(reason)` when unusable. Supplied by the shell (the core opens no file).
+pub type FileProbe<'a> = dyn Fn(&str) -> Result<Option<(u32, u32)>, String> + 'a;
+
+/// A problem found while loading or validating, naming the node when there is one.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct Problem {
+    /// Node id concerned, if any.
+    pub node: Option<String>,
+    /// What is wrong.
+    pub msg: String,
+    /// Whether the item was dropped (error) or kept (warning).
+    pub dropped: bool,
+}
+
+impl std::fmt::Display for Problem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.node {
+            Some(n) => write!(f, "node '{n}': {}", self.msg),
+            None => write!(f, "{}", self.msg),
+        }
+    }
+}
+
+/// Why a graph cannot be read at all.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum GraphError {
+    /// Not well-formed XML or not an `<infograph>`.
+    #[error("not a valid information graph: {0}")]
+    Xml(String),
+    /// Written by another version.
+    #[error("information graph version {found}, this build reads version {GRAPH_VERSION}")]
+    Version {
+        /// Version in the file.
+        found: u32,
+    },
+}
+
+// ---- The XML as written: parse, then validate. ----
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(rename = "infograph")]
+struct RawGraph {
+    #[serde(rename = "@version")]
+    version: u32,
+    #[serde(rename = "@default-lang", default = "default_lang")]
+    default_lang: String,
+    #[serde(rename = "node", default)]
+    nodes: Vec<RawNode>,
+    #[serde(rename = "edge", default)]
+    edges: Vec<RawEdge>,
+}
+
+fn default_lang() -> String {
+    "en".into()
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct RawNode {
+    #[serde(rename = "@id")]
+    id: String,
+    #[serde(rename = "@importance", default = "one")]
+    importance: f64,
+    view: Option<RawView>,
+    #[serde(rename = "title", default, skip_serializing_if = "Vec::is_empty")]
+    titles: Vec<RawText>,
+    #[serde(rename = "text", default, skip_serializing_if = "Vec::is_empty")]
+    texts: Vec<RawText>,
+    #[serde(rename = "overlay", default, skip_serializing_if = "Vec::is_empty")]
+    overlays: Vec<RawFile>,
+    #[serde(rename = "narration", default, skip_serializing_if = "Vec::is_empty")]
+    narrations: Vec<RawFile>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    thumbnail: Option<RawFile>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    roi: Option<RawRoi>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct RawView {
+    #[serde(rename = "@eye")]
+    eye: String,
+    #[serde(rename = "@target")]
+    target: String,
+    #[serde(rename = "@up")]
+    up: String,
+    #[serde(rename = "@fov")]
+    fov: f64,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct RawText {
+    #[serde(rename = "@lang", default, skip_serializing_if = "Option::is_none")]
+    lang: Option<String>,
+    #[serde(rename = "$text", default)]
+    text: String,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct RawFile {
+    #[serde(rename = "@lang", default, skip_serializing_if = "Option::is_none")]
+    lang: Option<String>,
+    #[serde(rename = "@src")]
+    src: String,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct RawRoi {
+    #[serde(rename = "@mask", default, skip_serializing_if = "Option::is_none")]
+    mask: Option<String>,
+    #[serde(rename = "@min", default, skip_serializing_if = "Option::is_none")]
+    min: Option<String>,
+    #[serde(rename = "@max", default, skip_serializing_if = "Option::is_none")]
+    max: Option<String>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct RawEdge {
+    #[serde(rename = "@from")]
+    from: String,
+    #[serde(rename = "@to")]
+    to: String,
+    #[serde(rename = "@weight")]
+    weight: f64,
+}
+
+fn vec3(s: &str) -> Option<DVec3> {
+    let v: Vec<f64> = s.split_whitespace().map(str::parse).collect::<Result<_, _>>().ok()?;
+    (v.len() == 3 && v.iter().all(|x| x.is_finite())).then(|| DVec3::new(v[0], v[1], v[2]))
+}
+
+fn fmt3(v: DVec3) -> String {
+    format!("{} {} {}", v.x, v.y, v.z)
+}
+
+fn per_language(items: impl Iterator<Item = (Option<String>, String)>, default: &str) -> PerLanguage {
+    PerLanguage(items.map(|(l, v)| (l.unwrap_or_else(|| default.to_string()), v)).collect())
+}
+
+impl InfoGraph {
+    /// Reads a graph, keeping every valid node and edge; the problems list what was dropped.
+    pub fn from_xml(text: &str) -> Result<(Self, Vec<Problem>), GraphError> {
+        let raw: RawGraph = quick_xml::de::from_str(text).map_err(|e| GraphError::Xml(e.to_string()))?;
+        if raw.version != GRAPH_VERSION {
+            return Err(GraphError::Version { found: raw.version });
+        }
+        let mut problems = Vec::new();
+        let mut bad = |node: Option<&str>, msg: String, dropped: bool| {
+            problems.push(Problem { node: node.map(str::to_string), msg, dropped })
+        };
+        let lang = raw.default_lang.clone();
+        let mut nodes: Vec<Node> = Vec::new();
+        let mut seen = BTreeSet::new();
+        for n in raw.nodes {
+            let id = n.id.trim().to_string();
+            if id.is_empty() {
+                bad(None, "a node has an empty id; dropped".into(), true);
+                continue;
+            }
+            if !seen.insert(id.clone()) {
+                bad(Some(&id), "duplicate id; the later node is dropped".into(), true);
+                continue;
+            }
+            let Some(v) = n.view else {
+                bad(Some(&id), "no <view>; dropped".into(), true);
+                continue;
+            };
+            let (Some(eye), Some(target), Some(up)) = (vec3(&v.eye), vec3(&v.target), vec3(&v.up)) else {
+                bad(Some(&id), "view eye/target/up must be three finite numbers each; dropped".into(), true);
+                continue;
+            };
+            if (target - eye).length() <= 0.0 || !(v.fov > 0.0 && v.fov < std::f64::consts::PI) {
+                bad(
+                    Some(&id),
+                    "view has eye = target or a field of view outside (0, π); dropped".into(),
+                    true,
+                );
+                continue;
+            }
+            let mut view = Camera { eye, target, up, fov_y: v.fov };
+            // Keep an orthonormal up exactly as written (round trips), repair any other.
+            if (up.length() - 1.0).abs() > 1e-9 || up.dot(view.forward()).abs() > 1e-9 {
+                view.up = orthonormal_up(view.forward(), up, DVec3::Y);
+            }
+            let mut importance = n.importance;
+            if !(0.0..=1.0).contains(&importance) {
+                bad(Some(&id), format!("importance {importance} outside [0, 1]; clamped"), false);
+                importance = if importance.is_nan() { 0.0 } else { importance.clamp(0.0, 1.0) };
+            }
+            let roi_bbox = match n
+                .roi
+                .as_ref()
+                .map(|r| (r.min.as_deref().map(vec3), r.max.as_deref().map(vec3)))
+            {
+                Some((Some(Some(a)), Some(Some(b)))) => Some((a.min(b), a.max(b))),
+                Some((None, None)) | None => None,
+                Some(_) => {
+                    bad(Some(&id), "roi min/max must both be three finite numbers; ignored".into(), false);
+                    None
+                }
+            };
+            nodes.push(Node {
+                id,
+                view,
+                importance,
+                title: per_language(n.titles.into_iter().map(|t| (t.lang, t.text.trim().to_string())), &lang),
+                text: per_language(n.texts.into_iter().map(|t| (t.lang, t.text.trim().to_string())), &lang),
+                overlay: per_language(n.overlays.into_iter().map(|f| (f.lang, f.src)), &lang),
+                narration: per_language(n.narrations.into_iter().map(|f| (f.lang, f.src)), &lang),
+                thumbnail: n.thumbnail.map(|f| f.src),
+                roi_mask: n.roi.and_then(|r| r.mask),
+                roi_bbox,
+            });
+        }
+        let index: BTreeMap<&str, usize> =
+            nodes.iter().enumerate().map(|(i, n)| (n.id.as_str(), i)).collect();
+        let mut edges = Vec::new();
+        let mut pairs = BTreeSet::new();
+        for e in raw.edges {
+            let (Some(&from), Some(&to)) = (index.get(e.from.as_str()), index.get(e.to.as_str())) else {
+                let unknown = if index.contains_key(e.from.as_str()) { &e.to } else { &e.from };
+                bad(
+                    Some(unknown),
+                    format!("edge {} → {} names an unknown node; dropped", e.from, e.to),
+                    true,
+                );
+                continue;
+            };
+            if !(0.0..=1.0).contains(&e.weight) {
+                bad(
+                    Some(&e.to),
+                    format!("edge {} → {} has weight {} outside [0, 1]; dropped", e.from, e.to, e.weight),
+                    true,
+                );
+                continue;
+            }
+            if from == to {
+                bad(Some(&e.to), "a node cannot depend on itself; edge dropped".into(), true);
+                continue;
+            }
+            if !pairs.insert((from, to)) {
+                bad(Some(&e.to), format!("duplicate edge {} → {}; the later is dropped", e.from, e.to), true);
+                continue;
+            }
+            edges.push(Edge { from, to, weight: e.weight });
+        }
+        let graph = Self { default_lang: lang, nodes, edges };
+        problems.extend(graph.check_structure());
+        Ok((graph, problems))
+    }
+
+    /// Structural checks that do not drop anything: nodes that can never be shown because of a
+    /// cycle of mandatory dependencies (or a mandatory predecessor in such a cycle).
+    pub fn check_structure(&self) -> Vec<Problem> {
+        let never = self.never_shown();
+        never
+            .into_iter()
+            .map(|i| Problem {
+                node: Some(self.nodes[i].id.clone()),
+                msg: "can never be shown: it depends, through mandatory edges, on a cycle of mandatory edges"
+                    .into(),
+                dropped: false,
+            })
+            .collect()
+    }
+
+    /// Nodes unreachable through mandatory dependencies (Kahn's algorithm on mandatory edges).
+    pub fn never_shown(&self) -> Vec<usize> {
+        let n = self.nodes.len();
+        let mut indeg = vec![0usize; n];
+        let mut out: Vec<Vec<usize>> = vec![Vec::new(); n];
+        for e in self.edges.iter().filter(|e| e.weight >= MANDATORY) {
+            indeg[e.to] += 1;
+            out[e.from].push(e.to);
+        }
+        let mut queue: Vec<usize> = (0..n).filter(|&i| indeg[i] == 0).collect();
+        let mut reached = vec![false; n];
+        while let Some(i) = queue.pop() {
+            reached[i] = true;
+            for &j in &out[i] {
+                indeg[j] -= 1;
+                if indeg[j] == 0 {
+                    queue.push(j);
+                }
+            }
+        }
+        (0..n).filter(|&i| !reached[i]).collect()
+    }
+
+    /// Index of a node by id.
+    pub fn index_of(&self, id: &str) -> Option<usize> {
+        self.nodes.iter().position(|n| n.id == id)
+    }
+
+    /// Checks the files a graph names, with `probe(path) → Ok(Some((w, h)))` for an image,
+    /// `Ok(None)` for an existing non-image and `Err(reason)` when unusable (the shell reads the
+    /// files; the core stays pure). Overlays must have the projection's aspect ratio `aspect`.
+    pub fn check_files(&self, aspect: f64, probe: &FileProbe<'_>) -> Vec<Problem> {
+        let mut out = Vec::new();
+        for n in &self.nodes {
+            let mut check = |what: &str, path: &str, is_overlay: bool| match probe(path) {
+                Err(e) => out.push(Problem {
+                    node: Some(n.id.clone()),
+                    msg: format!("{what} {path}: {e}"),
+                    dropped: false,
+                }),
+                Ok(Some((w, h))) if is_overlay && h > 0 => {
+                    let a = f64::from(w) / f64::from(h);
+                    if (a - aspect).abs() > 0.01 * aspect {
+                        out.push(Problem {
+                            node: Some(n.id.clone()),
+                            msg: format!(
+                                "{what} {path} is {w}×{h} (aspect {a:.3}), the view's aspect is {aspect:.3}"
+                            ),
+                            dropped: false,
+                        });
+                    }
+                }
+                Ok(_) => {}
+            };
+            for p in n.overlay.0.values() {
+                check("overlay", p, true);
+            }
+            for p in n.narration.0.values() {
+                check("narration", p, false);
+            }
+            for p in n.thumbnail.iter().chain(&n.roi_mask) {
+                check("image", p, false);
+            }
+        }
+        out
+    }
+
+    /// Writes the graph as XML (version 1).
+    pub fn to_xml(&self) -> String {
+        let texts = |p: &PerLanguage| {
+            p.0.iter().map(|(l, t)| RawText { lang: Some(l.clone()), text: t.clone() }).collect()
+        };
+        let files = |p: &PerLanguage| {
+            p.0.iter().map(|(l, s)| RawFile { lang: Some(l.clone()), src: s.clone() }).collect()
+        };
+        let raw = RawGraph {
+            version: GRAPH_VERSION,
+            default_lang: self.default_lang.clone(),
+            nodes: self
+                .nodes
+                .iter()
+                .map(|n| RawNode {
+                    id: n.id.clone(),
+                    importance: n.importance,
+                    view: Some(RawView {
+                        eye: fmt3(n.view.eye),
+                        target: fmt3(n.view.target),
+                        up: fmt3(n.view.up),
+                        fov: n.view.fov_y,
+                    }),
+                    titles: texts(&n.title),
+                    texts: texts(&n.text),
+                    overlays: files(&n.overlay),
+                    narrations: files(&n.narration),
+                    thumbnail: n.thumbnail.clone().map(|src| RawFile { lang: None, src }),
+                    roi: (n.roi_mask.is_some() || n.roi_bbox.is_some()).then(|| RawRoi {
+                        mask: n.roi_mask.clone(),
+                        min: n.roi_bbox.map(|b| fmt3(b.0)),
+                        max: n.roi_bbox.map(|b| fmt3(b.1)),
+                    }),
+                })
+                .collect(),
+            edges: self
+                .edges
+                .iter()
+                .map(|e| RawEdge {
+                    from: self.nodes[e.from].id.clone(),
+                    to: self.nodes[e.to].id.clone(),
+                    weight: e.weight,
+                })
+                .collect(),
+        };
+        let mut out = String::from("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
+        let mut ser = quick_xml::se::Serializer::new(&mut out);
+        ser.indent(' ', 2);
+        if let Err(e) = raw.serialize(ser) {
+            // Serialising our own structs cannot fail short of a bug; say so in the output.
+            return format!("<!-- serialisation failed: {e} -->");
+        }
+        out.push('\n');
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const EXAMPLE: &str = r#"<?xml version="1.0"?>
+<infograph version="1" default-lang="en">
+  <node id="intro" importance="1.0">
+    <view eye="0 1 3" target="0 1 0" up="0 1 0" fov="0.8"/>
+    <title lang="en">The bust</title>
+    <title lang="it">Il busto</title>
+    <text>Demosthenes, Athenian orator &amp; statesman.</text>
+    <overlay lang="en" src="overlays/intro.png"/>
+    <narration lang="en" src="audio/intro-en.ogg"/>
+    <thumbnail src="thumbs/intro.png"/>
+    <roi mask="roi/intro.png" min="-0.2 0.8 -0.1" max="0.2 1.2 0.2"/>
+  </node>
+  <node id="beard" importance="0.6">
+    <view eye="0.5 1 2" target="0 1 0" up="0 1 0" fov="0.6"/>
+    <title>The beard</title>
+  </node>
+  <edge from="intro" to="beard" weight="1"/>
+</infograph>"#;
+
+    #[test]
+    fn example_loads_and_round_trips() {
+        let (g, problems) = InfoGraph::from_xml(EXAMPLE).expect("valid");
+        assert!(problems.is_empty(), "{problems:?}");
+        assert_eq!(g.nodes.len(), 2);
+        assert_eq!(g.nodes[0].title.get("it", "en"), Some("Il busto"));
+        assert_eq!(g.nodes[0].title.get("fr", "en"), Some("The bust"));
+        assert_eq!(g.nodes[0].text.get("en", "en"), Some("Demosthenes, Athenian orator & statesman."));
+        assert_eq!(g.edges, vec![Edge { from: 0, to: 1, weight: 1.0 }]);
+        let xml = g.to_xml();
+        let (again, p2) = InfoGraph::from_xml(&xml).expect("own output");
+        assert!(p2.is_empty());
+        assert_eq!(again, g);
+    }
+
+    #[test]
+    fn problems_name_the_node_and_keep_the_rest() {
+        let xml = r#"<infograph version="1">
+  <node id="a"><view eye="0 0 1" target="0 0 0" up="0 1 0" fov="0.8"/></node>
+  <node id="a"><view eye="0 0 2" target="0 0 0" up="0 1 0" fov="0.8"/></node>
+  <node id="b" importance="3"><view eye="0 0 1" target="0 0 0" up="0 1 0" fov="0.8"/></node>
+  <node id="c"><view eye="0 0 1" target="0 0 0" up="0 1 0" fov="0.8"/></node>
+  <node id="d"><view eye="0 0 1" target="0 0 0" up="0 1 0" fov="0.8"/></node>
+  <node id="e"><view eye="x" target="0 0 0" up="0 1 0" fov="0.8"/></node>
+  <edge from="a" to="zzz" weight="1"/>
+  <edge from="a" to="b" weight="1.5"/>
+  <edge from="c" to="d" weight="1"/>
+  <edge from="d" to="c" weight="1"/>
+</infograph>"#;
+        let (g, problems) = InfoGraph::from_xml(xml).expect("readable");
+        let text: Vec<String> = problems.iter().map(ToString::to_string).collect();
+        assert_eq!(g.nodes.len(), 4, "{text:?}");
+        let has = |s: &str| text.iter().any(|t| t.contains(s));
+        assert!(has("node 'a': duplicate id"));
+        assert!(has("node 'b': importance 3 outside [0, 1]"));
+        assert!(has("node 'e': view eye/target/up"));
+        assert!(has("node 'zzz': edge a → zzz names an unknown node"));
+        assert!(has("node 'b': edge a → b has weight 1.5 outside [0, 1]"));
+        assert!(has("node 'c': can never be shown"));
+        assert!(has("node 'd': can never be shown"));
+        let err = InfoGraph::from_xml("<nope/>").map(|_| ()).expect_err("not a graph");
+        assert!(err.to_string().starts_with("not a valid"), "{err}");
+        assert_eq!(
+            InfoGraph::from_xml(r#"<infograph version="7"/>"#).map(|_| ()),
+            Err(GraphError::Version { found: 7 })
+        );
+    }
+
+    #[test]
+    fn files_are_checked_through_the_probe() {
+        let (g, _) = InfoGraph::from_xml(EXAMPLE).expect("valid");
+        let probe = |p: &str| match p {
+            "overlays/intro.png" => Ok(Some((1000, 1000))),
+            "audio/intro-en.ogg" => Err("missing".to_string()),
+            _ => Ok(None),
+        };
+        let problems: Vec<String> =
+            g.check_files(16.0 / 9.0, &probe).iter().map(ToString::to_string).collect();
+        assert!(problems.iter().any(|p| p.contains("node 'intro': overlay overlays/intro.png is 1000×1000")));
+        assert!(problems.iter().any(|p| p.contains("node 'intro': narration audio/intro-en.ogg: missing")));
+    }
+}

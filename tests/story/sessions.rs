@@ -1,0 +1,138 @@
+//! Scripted touch sessions with an information graph, through the replay harness: a node
+//! reached by attraction, a proposal accepted by a long press, a proposal ignored, the radial
+//! menu.
+
+use super::node;
+use crate::common;
+use glam::DVec3;
+use kiosk_core::graph::InfoGraph;
+use kiosk_core::replay::{self, ReplaySettings, Trace};
+use kiosk_core::session::Script;
+
+struct Exhibit {
+    built: common::Built,
+    center: DVec3,
+    eye0: DVec3,
+}
+
+fn exhibit() -> Exhibit {
+    let built =
+        common::build(&common::read("scans/demosthenes/demosthenes-low-res.obj"), common::small_nodes());
+    let center = built.store.to_model(built.store.bbox().center());
+    let eye0 = replay::initial_camera(&built.store, 0.8, DVec3::Y).eye;
+    Exhibit { built, center, eye0 }
+}
+
+impl Exhibit {
+    /// A view from the initial eye orbited by `deg` about the vertical axis through the centre.
+    fn orbited(&self, id: &str, deg: f64) -> kiosk_core::graph::Node {
+        let a = deg.to_radians();
+        let r = self.eye0 - self.center;
+        let eye =
+            self.center + DVec3::new(r.x * a.cos() + r.z * a.sin(), r.y, -r.x * a.sin() + r.z * a.cos());
+        node(id, eye, self.center, 1.0)
+    }
+
+    fn run(&self, graph: &InfoGraph, script: &Script) -> Trace {
+        replay::run_story(&self.built.store, &script.session(), &ReplaySettings::default(), Some(graph))
+    }
+}
+
+fn graph(nodes: Vec<kiosk_core::graph::Node>) -> InfoGraph {
+    InfoGraph { default_lang: "en".into(), nodes, edges: vec![] }
+}
+
+fn states(t: &Trace) -> Vec<String> {
+    let mut v: Vec<String> = Vec::new();
+    for f in &t.frames {
+        let s = f.recommender.clone().unwrap_or_default();
+        if v.last() != Some(&s) {
+            v.push(s);
+        }
+    }
+    v
+}
+
+#[test]
+fn a_node_is_reached_by_attraction() {
+    let ex = exhibit();
+    let g = graph(vec![ex.orbited("side", 70.0)]);
+    // Explore toward the right for a while.
+    let t = ex.run(&g, &Script::new().wait(3.5).joystick(1, (0.3, 0.0), 8.0).wait(2.0).cancel(99));
+    let s = states(&t);
+    assert_eq!(t.summary.nodes_displayed, vec!["side".to_string()], "states {s:?}");
+    let goto = s.iter().position(|x| x == "go-to").expect("go-to");
+    assert!(
+        s[..goto].contains(&"attract".to_string()) && !s[..goto].contains(&"propose".to_string()),
+        "{s:?}"
+    );
+    assert!(t.frames.iter().any(|f| f.overlay.as_deref() == Some("side")));
+    assert_eq!(t.summary.collisions, 0);
+}
+
+#[test]
+fn a_proposal_is_accepted_with_a_long_press() {
+    let ex = exhibit();
+    let g = graph(vec![ex.orbited("back", 180.0)]);
+    // Discover (3 s) + attract (8 s): proposed at ~11 s; long press at 12 s.
+    let t = ex
+        .run(&g, &Script::new().wait(12.0).down(1, 0.5, 0.5).wait(1.0).up(1, 0.5, 0.5).wait(3.0).cancel(99));
+    assert_eq!(t.summary.proposals_accepted, 1, "{:?}", states(&t));
+    assert_eq!(
+        t.summary.menu_requests, 0,
+        "the long press accepted the proposal instead of opening the menu"
+    );
+    assert_eq!(t.summary.nodes_displayed, vec!["back".to_string()]);
+    let last = t.frames.last().expect("frames");
+    assert_eq!(last.overlay.as_deref(), Some("back"));
+    // The go-to ended at the node's view.
+    let view = g.nodes[0].view;
+    assert!(
+        (DVec3::from_array(last.eye) - view.eye).length()
+            < 1e-6 * f64::from(ex.built.store.bbox().diagonal()).max(1.0)
+    );
+}
+
+#[test]
+fn an_ignored_proposal_times_out_back_to_discover() {
+    let ex = exhibit();
+    let g = graph(vec![ex.orbited("back", 180.0)]);
+    // (A touch-less session: a final ignored event sets its length.)
+    let t = ex.run(&g, &Script::new().wait(21.0).cancel(99));
+    let s = states(&t);
+    assert!(t.summary.proposals_ignored >= 1, "{s:?}");
+    assert!(t.summary.nodes_displayed.is_empty());
+    let p = s.iter().position(|x| x == "propose").expect("proposed");
+    assert_eq!(s.get(p + 1).map(String::as_str), Some("discover"), "{s:?}");
+}
+
+#[test]
+fn the_radial_menu_offers_nearby_views_and_selects_by_direction() {
+    let ex = exhibit();
+    let g = graph(vec![
+        ex.orbited("far", 150.0),
+        ex.orbited("left", -12.0),
+        ex.orbited("right", 20.0),
+        ex.orbited("near", 4.0),
+    ]);
+    // Long press during discover: the menu; point up (the nearest slot) and release.
+    let t = ex.run(
+        &g,
+        &Script::new()
+            .down(1, 0.5, 0.5)
+            .wait(1.0)
+            .drag(&[(1, (0.5, 0.5), (0.5, 0.3))], 0.2)
+            .wait(0.1)
+            .up(1, 0.5, 0.3)
+            .wait(3.0)
+            .cancel(99),
+    );
+    assert_eq!(t.summary.menu_requests, 1);
+    let open = t.frames.iter().find(|f| f.menu.is_some()).expect("menu shown");
+    let cands = &open.menu.as_ref().expect("menu").candidates;
+    assert_eq!(cands.first().map(String::as_str), Some("near"), "nearest first: {cands:?}");
+    assert!(!cands.contains(&"far".to_string()), "a view from behind is not offered: {cands:?}");
+    assert_eq!(t.summary.nodes_displayed, vec!["near".to_string()], "{:?} {:?}", states(&t), t.summary);
+    // The overlay stays until the visitor moves away.
+    assert_eq!(t.frames.last().expect("frames").overlay.as_deref(), Some("near"));
+}
