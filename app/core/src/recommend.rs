@@ -39,6 +39,8 @@ pub struct RecSettings {
     pub visible_threshold: f64,
     /// Fewest ROI samples for the close metric (Eq. 11.3).
     pub min_roi_samples: usize,
+    /// Most nodes compared with the close metric per step (nearest potentially visible first).
+    pub max_close: usize,
     /// Attraction: orthogonal nudge as a fraction of the user's motion.
     pub nudge_gain: f64,
     /// Friction: under this view distance, the user's motion is slowed…
@@ -61,6 +63,7 @@ impl Default for RecSettings {
             leave_distance: 0.5,
             visible_threshold: 0.0,
             min_roi_samples: 4,
+            max_close: 16,
             nudge_gain: 0.5,
             friction_distance: 0.3,
             friction: 0.5,
@@ -226,7 +229,111 @@ pub struct ViewContext<'a> {
 const XI2: f64 = 8.0;
 
 fn ndc2(cam: &Camera, p: DVec3, aspect: f64) -> Option<DVec2> {
-    cam.ndc(p, aspect).map(|(x, y, _)| DVec2::new(x, y))
+    Projector::new(cam).ndc(p, aspect)
+}
+
+/// A camera's projection to normalised device coordinates, with its basis precomputed.
+#[derive(Clone, Copy, Debug)]
+pub struct Projector {
+    eye: DVec3,
+    right: DVec3,
+    up: DVec3,
+    forward: DVec3,
+    inv_tan: f64,
+}
+
+impl Projector {
+    /// Precomputes a camera's projection.
+    pub fn new(cam: &Camera) -> Self {
+        let forward = cam.forward();
+        let right = cam.right();
+        Self {
+            eye: cam.eye,
+            right,
+            up: right.cross(forward),
+            forward,
+            inv_tan: 1.0 / (cam.fov_y * 0.5).tan(),
+        }
+    }
+
+    /// NDC (x, y) of `p` for a viewport of the given aspect ratio, `None` behind the eye.
+    #[inline]
+    pub fn ndc(&self, p: DVec3, aspect: f64) -> Option<DVec2> {
+        let d = p - self.eye;
+        let z = d.dot(self.forward);
+        (z > 0.0).then(|| DVec2::new(d.dot(self.right) / aspect, d.dot(self.up)) * (self.inv_tan / z))
+    }
+}
+
+/// What a recommendation step computes once from the context: the samples' projections in the
+/// current view and the centre of the visible samples.
+struct StepFrame<'a> {
+    ctx: &'a ViewContext<'a>,
+    cur: Projector,
+    cur_ndc: Vec<Option<DVec2>>,
+    t_cur: DVec3,
+}
+
+impl<'a> StepFrame<'a> {
+    fn new(ctx: &'a ViewContext<'a>) -> Self {
+        let cur = Projector::new(&ctx.camera);
+        let cur_ndc: Vec<Option<DVec2>> = ctx.samples.iter().map(|&s| cur.ndc(s, ctx.aspect)).collect();
+        let (mut sum, mut n) = (DVec3::ZERO, 0usize);
+        for (s, p) in ctx.samples.iter().zip(&cur_ndc) {
+            if p.is_some_and(|p| p.x.abs() <= 1.0 && p.y.abs() <= 1.0) {
+                sum += *s;
+                n += 1;
+            }
+        }
+        let t_cur = if n == 0 { ctx.camera.target } else { sum / n as f64 };
+        Self { ctx, cur, cur_ndc, t_cur }
+    }
+
+    /// Eq. 11.3.
+    fn close(&self, view: &Projector, roi: Option<(DVec3, DVec3)>, min_roi: usize) -> Option<f64> {
+        let k = self.ctx.samples.len();
+        if k == 0 {
+            return None;
+        }
+        let (mut r, mut sum) = (0usize, 0.0);
+        for (&s, cur) in self.ctx.samples.iter().zip(&self.cur_ndc) {
+            let in_roi = match roi {
+                Some((lo, hi)) => s.cmpge(lo).all() && s.cmple(hi).all(),
+                None => true,
+            };
+            if !in_roi {
+                continue;
+            }
+            let pi = view.ndc(s, self.ctx.aspect);
+            if roi.is_none() && !pi.is_some_and(|p| p.x.abs() <= 1.0 && p.y.abs() <= 1.0) {
+                continue;
+            }
+            r += 1;
+            let d2 = match (pi, cur) {
+                (Some(a), Some(b)) => (a - *b).length_squared(),
+                _ => XI2,
+            };
+            sum += d2.min(XI2);
+        }
+        if r < min_roi {
+            return None;
+        }
+        Some((1.0 - (XI2 * (k - r) as f64 + sum) / (k as f64 * XI2)).clamp(0.0, 1.0))
+    }
+
+    /// Eq. 11.4.
+    fn far(&self, view: &Camera) -> f64 {
+        let ctx = self.ctx;
+        let t_i = view.eye + view.forward() * (self.t_cur - ctx.camera.eye).length();
+        let delta = ctx.diagonal.max(f64::MIN_POSITIVE);
+        (1.0 - ((view.eye - ctx.camera.eye).length() + (t_i - self.t_cur).length()) / (2.0 * delta))
+            .clamp(0.0, 1.0)
+    }
+
+    /// Whether a point is on screen in the current view.
+    fn on_screen(&self, p: DVec3) -> bool {
+        self.cur.ndc(p, self.ctx.aspect).is_some_and(|q| q.x.abs() <= 1.0 && q.y.abs() <= 1.0)
+    }
 }
 
 /// Close similarity, Eq. 11.3, of `view` to `ctx.camera` over the samples; `None` when fewer
@@ -237,50 +344,12 @@ pub fn similarity_close(
     ctx: &ViewContext<'_>,
     min_roi: usize,
 ) -> Option<f64> {
-    let k = ctx.samples.len();
-    if k == 0 {
-        return None;
-    }
-    let mut r = 0usize;
-    let mut sum = 0.0;
-    for &s in ctx.samples {
-        let pi = ndc2(view, s, ctx.aspect);
-        let in_roi = match roi {
-            Some((lo, hi)) => s.cmpge(lo).all() && s.cmple(hi).all(),
-            None => pi.is_some_and(|p| p.x.abs() <= 1.0 && p.y.abs() <= 1.0),
-        };
-        if !in_roi {
-            continue;
-        }
-        r += 1;
-        let d2 = match (pi, ndc2(&ctx.camera, s, ctx.aspect)) {
-            (Some(a), Some(b)) => (a - b).length_squared(),
-            _ => XI2,
-        };
-        sum += d2.min(XI2);
-    }
-    if r < min_roi {
-        return None;
-    }
-    Some((1.0 - (XI2 * (k - r) as f64 + sum) / (k as f64 * XI2)).clamp(0.0, 1.0))
+    StepFrame::new(ctx).close(&Projector::new(view), roi, min_roi)
 }
 
 /// Far similarity, Eq. 11.4.
 pub fn similarity_far(view: &Camera, ctx: &ViewContext<'_>) -> f64 {
-    let visible: Vec<DVec3> = ctx
-        .samples
-        .iter()
-        .copied()
-        .filter(|&s| ndc2(&ctx.camera, s, ctx.aspect).is_some_and(|p| p.x.abs() <= 1.0 && p.y.abs() <= 1.0))
-        .collect();
-    let t_cur = if visible.is_empty() {
-        ctx.camera.target
-    } else {
-        visible.iter().fold(DVec3::ZERO, |a, p| a + *p) / visible.len() as f64
-    };
-    let t_i = view.eye + view.forward() * (t_cur - ctx.camera.eye).length();
-    let delta = ctx.diagonal.max(f64::MIN_POSITIVE);
-    (1.0 - ((view.eye - ctx.camera.eye).length() + (t_i - t_cur).length()) / (2.0 * delta)).clamp(0.0, 1.0)
+    StepFrame::new(ctx).far(view)
 }
 
 /// View distance d = (1/S) Σ ‖P V_view s − P V_cur s‖ in NDC over the samples seen by both
@@ -328,6 +397,8 @@ pub struct Recommender {
     mandatory: Vec<Vec<usize>>,
     /// All predecessors (node, ω) per node.
     preds: Vec<Vec<(usize, f64)>>,
+    /// Each node's view projection, precomputed.
+    projectors: Vec<Projector>,
 }
 
 impl Recommender {
@@ -342,12 +413,14 @@ impl Recommender {
                 mandatory[e.to].push(e.from);
             }
         }
+        let projectors = graph.nodes.iter().map(|n| Projector::new(&n.view)).collect();
         Self {
             settings,
             state: RecState::Discover { since: now },
             stats: vec![NodeStats::default(); n],
             mandatory,
             preds,
+            projectors,
         }
     }
 
@@ -365,32 +438,57 @@ impl Recommender {
         self.mandatory[node].iter().all(|&p| self.stats[p].visited)
     }
 
-    /// Scores of every node (Eq. 11.1–11.4).
+    /// Scores of every node (Eq. 11.1–11.4), as thesis 11.5 organises them: nodes whose
+    /// γ · D · R is zero (e.g. a mandatory predecessor not yet shown) are not compared at all;
+    /// the close metric (Eq. 11.3) is computed only for the `max_close` potentially visible
+    /// nodes (focus point on screen) nearest to the eye; every other node uses the O(1) far
+    /// metric (Eq. 11.4).
     pub fn scores(&self, graph: &InfoGraph, ctx: &ViewContext<'_>, now: f64) -> Vec<Score> {
-        (0..graph.nodes.len())
-            .map(|i| {
-                if !self.feasible(i) {
-                    return Score { score: 0.0, visible: false };
-                }
-                let n = &graph.nodes[i];
-                let d: f64 = self.preds[i]
-                    .iter()
-                    .map(|&(j, w)| 1.0 - w * (1.0 - f64::from(u8::from(self.stats[j].visited))))
-                    .product();
-                let r = match self.stats[i].last_event {
-                    None => 1.0,
-                    Some(t) => (((now - t).max(0.0) / self.settings.t_max_secs).powi(2)).min(1.0),
-                };
-                let close = similarity_close(&n.view, n.roi_bbox, ctx, self.settings.min_roi_samples)
-                    .filter(|&s| s > self.settings.visible_threshold);
-                let (sigma, visible) = match close {
-                    Some(s) => (s, true),
-                    None => (similarity_far(&n.view, ctx), false),
-                };
-                let score = n.importance * d * r * sigma;
-                Score { score: if score.is_finite() { score.max(0.0) } else { 0.0 }, visible }
-            })
-            .collect()
+        let frame = StepFrame::new(ctx);
+        let mut out = vec![Score { score: 0.0, visible: false }; graph.nodes.len()];
+        let mut base = vec![0.0; graph.nodes.len()];
+        let mut visible = Vec::new();
+        for (i, n) in graph.nodes.iter().enumerate() {
+            if !self.feasible(i) {
+                continue;
+            }
+            let d: f64 = self.preds[i]
+                .iter()
+                .map(|&(j, w)| 1.0 - w * (1.0 - f64::from(u8::from(self.stats[j].visited))))
+                .product();
+            let r = match self.stats[i].last_event {
+                None => 1.0,
+                Some(t) => (((now - t).max(0.0) / self.settings.t_max_secs).powi(2)).min(1.0),
+            };
+            base[i] = n.importance * d * r;
+            if base[i].is_nan() || base[i] <= 0.0 {
+                continue;
+            }
+            let focus = n.roi_bbox.map_or(n.view.target, |(lo, hi)| (lo + hi) * 0.5);
+            if frame.on_screen(focus) {
+                visible.push(((n.view.eye - ctx.camera.eye).length_squared(), i));
+            }
+        }
+        visible.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        visible.truncate(self.settings.max_close);
+        for &(_, i) in &visible {
+            let n = &graph.nodes[i];
+            if let Some(sigma) = frame
+                .close(&self.projectors[i], n.roi_bbox, self.settings.min_roi_samples)
+                .filter(|&s| s > self.settings.visible_threshold)
+            {
+                out[i] = Score { score: base[i] * sigma, visible: true };
+            }
+        }
+        for (i, n) in graph.nodes.iter().enumerate() {
+            if base[i] > 0.0 && !out[i].visible {
+                out[i] = Score { score: base[i] * frame.far(&n.view), visible: false };
+            }
+            if !out[i].score.is_finite() || out[i].score < 0.0 {
+                out[i].score = 0.0;
+            }
+        }
+        out
     }
 
     /// Picks a node with probability proportional to its score, among the visible candidates
@@ -563,29 +661,79 @@ impl Default for RadialSettings {
     }
 }
 
+/// The views of a graph in a kd-tree on their eye positions (thesis 9.7.2): the implicit box
+/// hierarchy of the scene, over eyes relative to their centroid.
+#[derive(Clone, Debug)]
+pub struct ViewIndex {
+    center: DVec3,
+    eyes: Vec<IndexedEye>,
+    boxes: Vec<crate::geom::Aabb>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct IndexedEye {
+    pos: glam::Vec3,
+    node: usize,
+}
+
+impl crate::scene::HasPosition for IndexedEye {
+    fn position(&self) -> glam::Vec3 {
+        self.pos
+    }
+}
+
+impl ViewIndex {
+    /// Indexes the views of `graph`.
+    pub fn new(graph: &InfoGraph) -> Self {
+        let n = graph.nodes.len().max(1) as f64;
+        let center = graph.nodes.iter().fold(DVec3::ZERO, |a, v| a + v.view.eye) / n;
+        let mut eyes: Vec<IndexedEye> = graph
+            .nodes
+            .iter()
+            .enumerate()
+            .map(|(node, v)| IndexedEye { pos: (v.view.eye - center).as_vec3(), node })
+            .collect();
+        crate::scene::boxtree::sort_spatially(&mut eyes);
+        let boxes = crate::scene::boxtree::build_boxes(&eyes);
+        Self { center, eyes, boxes }
+    }
+
+    /// The `k` views whose eyes are nearest to `p`, nearest first (exact distances in f64).
+    pub fn nearest(&self, graph: &InfoGraph, p: DVec3, k: usize) -> Vec<usize> {
+        let tree = crate::scene::BoxTree::new(&self.eyes, &self.boxes);
+        let mut best = crate::scene::KBest::new(k.max(1));
+        tree.knn((p - self.center).as_vec3(), u32::MAX, &mut best, &|i| i);
+        let mut out: Vec<(f64, usize)> = best
+            .items()
+            .iter()
+            .map(|&(_, i)| {
+                let node = self.eyes[i as usize].node;
+                ((graph.nodes[node].view.eye - p).length_squared(), node)
+            })
+            .collect();
+        out.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        out.into_iter().map(|(_, n)| n).collect()
+    }
+}
+
 /// Candidates for the radial menu, nearest first: the `nearest` views closest to the eye whose
 /// direction is within `max_angle` of the current one and that are in line of sight
 /// (`line_of_sight(from, to)`, a ray cast on the scene by the caller), filtered by the mean NDC
 /// distance over the samples; at most `slots`.
 pub fn radial_candidates(
     graph: &InfoGraph,
+    index: &ViewIndex,
     ctx: &ViewContext<'_>,
     settings: &RadialSettings,
     line_of_sight: &mut dyn FnMut(DVec3, DVec3) -> bool,
 ) -> Vec<usize> {
     let cam = &ctx.camera;
-    let mut by_distance: Vec<(f64, usize)> =
-        graph.nodes.iter().enumerate().map(|(i, n)| ((n.view.eye - cam.eye).length_squared(), i)).collect();
-    let keep = settings.nearest.min(by_distance.len());
-    if keep == 0 {
+    if graph.nodes.is_empty() || settings.nearest == 0 {
         return Vec::new();
     }
-    by_distance.select_nth_unstable_by(keep - 1, |a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-    by_distance.truncate(keep);
-    by_distance.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     let cos_max = settings.max_angle.cos();
     let mut out = Vec::new();
-    for (_, i) in by_distance {
+    for i in index.nearest(graph, cam.eye, settings.nearest) {
         let v = &graph.nodes[i].view;
         if v.forward().dot(cam.forward()) < cos_max {
             continue;
@@ -619,4 +767,65 @@ pub fn slot_for_angle(angle: f64, count: usize) -> Option<usize> {
     }
     let step = std::f64::consts::TAU / count as f64;
     Some(((angle.rem_euclid(std::f64::consts::TAU) / step).round() as usize) % count)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::graph::{Node, PerLanguage};
+    use rand::SeedableRng;
+
+    fn graph(n: usize) -> InfoGraph {
+        let mut r = rand_pcg::Pcg64::seed_from_u64(1);
+        let nodes = (0..n)
+            .map(|i| {
+                let eye = DVec3::new(
+                    r.random_range(-5.0..5.0),
+                    r.random_range(-5.0..5.0),
+                    r.random_range(-5.0..5.0),
+                ) + 1e7;
+                Node {
+                    id: format!("v{i}"),
+                    view: Camera { eye, target: DVec3::splat(1e7), up: DVec3::Y, fov_y: 0.8 },
+                    importance: 1.0,
+                    title: PerLanguage::default(),
+                    text: PerLanguage::default(),
+                    overlay: PerLanguage::default(),
+                    narration: PerLanguage::default(),
+                    thumbnail: None,
+                    roi_mask: None,
+                    roi_bbox: None,
+                }
+            })
+            .collect();
+        InfoGraph { default_lang: "en".into(), nodes, edges: vec![] }
+    }
+
+    #[test]
+    fn view_index_finds_the_nearest_views_like_brute_force() {
+        let g = graph(1000);
+        let index = ViewIndex::new(&g);
+        let mut r = rand_pcg::Pcg64::seed_from_u64(2);
+        for _ in 0..100 {
+            let p =
+                DVec3::new(r.random_range(-6.0..6.0), r.random_range(-6.0..6.0), r.random_range(-6.0..6.0))
+                    + 1e7;
+            let got = index.nearest(&g, p, 10);
+            let mut all: Vec<(f64, usize)> =
+                g.nodes.iter().enumerate().map(|(i, n)| ((n.view.eye - p).length_squared(), i)).collect();
+            all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            let want: Vec<usize> = all.iter().take(10).map(|x| x.1).collect();
+            assert_eq!(got, want);
+        }
+    }
+
+    #[test]
+    fn radial_slots_go_clockwise_from_the_top() {
+        assert_eq!(slot_for_angle(0.0, 8), Some(0));
+        assert_eq!(slot_for_angle(std::f64::consts::FRAC_PI_4, 8), Some(1));
+        assert_eq!(slot_for_angle(-0.1, 8), Some(0));
+        assert_eq!(slot_for_angle(std::f64::consts::PI, 4), Some(2));
+        assert_eq!(slot_for_angle(1.0, 0), None);
+        assert_eq!(slot_for_angle(f64::NAN, 3), None);
+    }
 }

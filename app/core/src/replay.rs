@@ -8,8 +8,8 @@ use crate::camera::{
 use crate::gesture::{GestureSettings, Gestures, MenuEvent};
 use crate::graph::InfoGraph;
 use crate::recommend::{
-    Effect, RadialSettings, RecEvent, RecSettings, RecState, Recommender, ViewContext, radial_candidates,
-    slot_for_angle,
+    Effect, RadialSettings, RecEvent, RecSettings, RecState, Recommender, ViewContext, ViewIndex,
+    radial_candidates, slot_for_angle,
 };
 use crate::scene::{Cut, CutParams, Level, Store};
 use crate::session::Session;
@@ -250,6 +250,7 @@ pub fn run_story<B: AsRef<[u8]>>(
         make_controller(SceneRef { store, cut: &cut }, cam0, settings.controller, min_distance, settings.up);
     let mut gestures = Gestures::new(settings.gestures);
     let mut rec = graph.map(|g| Recommender::new(g, settings.recommend, 0.0));
+    let view_index = graph.map(ViewIndex::new);
     let mut menu: Option<Vec<usize>> = None;
     let mut goto: Option<GoTo> = None;
     let dt = 1.0 / settings.fps;
@@ -294,15 +295,19 @@ pub fn run_story<B: AsRef<[u8]>>(
                         rec_event = RecEvent::LongPress;
                     } else {
                         summary.menu_requests += 1;
-                        menu = Some(match graph {
-                            Some(g) => {
-                                radial_candidates(g, &ctx, &settings.radial, &mut |from: DVec3, to: DVec3| {
+                        menu = Some(match (graph, view_index.as_ref()) {
+                            (Some(g), Some(vi)) => radial_candidates(
+                                g,
+                                vi,
+                                &ctx,
+                                &settings.radial,
+                                &mut |from: DVec3, to: DVec3| {
                                     let d = to - from;
                                     let len = d.length();
                                     len <= 0.0 || store.ray_cast(Level::Cut(&cut), from, d, len).is_none()
-                                })
-                            }
-                            None => Vec::new(),
+                                },
+                            ),
+                            _ => Vec::new(),
                         });
                     }
                 }
