@@ -136,3 +136,38 @@ fn the_radial_menu_offers_nearby_views_and_selects_by_direction() {
     // The overlay stays until the visitor moves away.
     assert_eq!(t.frames.last().expect("frames").overlay.as_deref(), Some("near"));
 }
+
+#[test]
+fn kiosk_replay_runs_the_story_of_an_exhibit_directory() {
+    let ex = exhibit();
+    let g = graph(vec![ex.orbited("left", -12.0), ex.orbited("near", 4.0), ex.orbited("back", 180.0)]);
+    let dir = tempfile::tempdir().expect("tmp");
+    std::fs::copy(common::data("scans/demosthenes/demosthenes-low-res.obj"), dir.path().join("bust.obj"))
+        .expect("model");
+    std::fs::write(dir.path().join("graph.xml"), g.to_xml()).expect("graph");
+    let script = Script::new()
+        .down(1, 0.5, 0.5)
+        .wait(1.0)
+        .drag(&[(1, (0.5, 0.5), (0.5, 0.3))], 0.2)
+        .wait(0.1)
+        .up(1, 0.5, 0.3)
+        .wait(3.0)
+        .cancel(99);
+    let session = dir.path().join("s.jsonl");
+    std::fs::write(&session, script.session().to_jsonl()).expect("session");
+    let trace = dir.path().join("t.jsonl");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_kiosk"))
+        .args(["replay", "--exhibit"])
+        .arg(dir.path())
+        .arg("--session")
+        .arg(&session)
+        .arg("--trace")
+        .arg(&trace)
+        .output()
+        .expect("run kiosk");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = std::fs::read_to_string(&trace).expect("trace");
+    assert!(text.contains(r#""menu":{"open":true,"candidates":["near","left"]}"#), "menu not traced");
+    assert!(text.contains(r#""recommender":"display","node":"near","overlay":"near""#), "overlay not traced");
+    assert!(text.lines().last().expect("summary").contains(r#""nodes_displayed":["near"]"#));
+}
