@@ -2,5 +2,6 @@
 
 mod camera;
 mod common;
+mod render;
 mod scene;
 mod story;

@@ -36,6 +36,33 @@ enum Command {
         /// The store file.
         store: PathBuf,
     },
+    /// Render one view of an exhibit's model offscreen to a PNG.
+    Snapshot {
+        /// Exhibit directory.
+        #[arg(long)]
+        exhibit: PathBuf,
+        /// The view: eye x,y,z, target x,y,z, up x,y,z, fov in degrees (default: the kiosk's start).
+        #[arg(long, conflicts_with = "node", allow_hyphen_values = true)]
+        view: Option<String>,
+        /// A node of the exhibit's graph.xml whose view to render.
+        #[arg(long)]
+        node: Option<String>,
+        /// Image size, WxH.
+        #[arg(long, default_value = "1280x720")]
+        size: String,
+        /// Output PNG.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Round points instead of oriented splats.
+        #[arg(long)]
+        points: bool,
+        /// Eye-dome lighting strength (0 = off).
+        #[arg(long, default_value_t = 0.0)]
+        edl: f32,
+        /// Pixel tolerance of the cut.
+        #[arg(long, default_value_t = 1.0)]
+        tolerance: f32,
+    },
     /// Replay a touch session without window or GPU and write its trace (JSON Lines).
     Replay {
         /// Exhibit directory (a store, or a scan imported on the fly).
@@ -82,6 +109,37 @@ fn main() -> anyhow::Result<()> {
                 s.levels(),
                 h.leaf_point_count,
                 h.origin
+            );
+        }
+        Command::Snapshot { exhibit, view, node, size, output, points, edl, tolerance } => {
+            let store = kiosk::exhibit::open_model(&exhibit)?;
+            let size = kiosk::snapshot::parse_size(&size)?;
+            let camera = match (view, node) {
+                (Some(v), _) => kiosk::snapshot::parse_view(&v)?,
+                (None, Some(id)) => {
+                    let (graph, _) = kiosk::exhibit::open_graph(&exhibit)?
+                        .with_context(|| format!("{}: no graph.xml for --node", exhibit.display()))?;
+                    let i = graph.index_of(&id).with_context(|| format!("no node '{id}' in the graph"))?;
+                    graph.nodes[i].view
+                }
+                (None, None) => kiosk_core::replay::initial_camera(&store, 0.8, glam::DVec3::Y),
+            };
+            let (gpu, mut renderer) = kiosk::snapshot::offscreen()?;
+            let settings = kiosk_render::RenderSettings {
+                mode: if points { kiosk_render::SplatMode::Points } else { kiosk_render::SplatMode::Splats },
+                edl_strength: edl,
+                ..Default::default()
+            };
+            let image =
+                kiosk::snapshot::snapshot(&gpu, &mut renderer, &store, &camera, size, tolerance, &settings)?;
+            image.save(&output).with_context(|| format!("cannot write {}", output.display()))?;
+            println!(
+                "{}: {}x{} on {} ({:?})",
+                output.display(),
+                size.0,
+                size.1,
+                gpu.adapter.name,
+                gpu.adapter.backend
             );
         }
         Command::Replay { exhibit, session, trace, controller, seed } => {

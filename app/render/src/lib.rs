@@ -1,0 +1,755 @@
+//! The IsoKiosk renderer: draws a cut of the point hierarchy as oriented elliptical splats (or
+//! round points) into any `wgpu::TextureView`, so the same code serves the kiosk windows, the
+//! authoring tool, thumbnails and tests; an offscreen path returns an RGBA image.
+//!
+//! - Camera-relative coordinates: splats stay `f32` relative to the model origin; the per-frame
+//!   translation origin − eye is computed in `f64` on the CPU, so a model at 10⁷ m renders like
+//!   one at the origin.
+//! - A GPU cache of node buffers under a memory budget (least recently used first out), fed by
+//!   the cut; uploads per frame are bounded, and a node not yet uploaded is drawn as its nearest
+//!   cached ancestor, so a sudden turn never stalls a frame nor opens a hole.
+//! - Optional eye-dome lighting (a screen-space pass on the depth buffer).
+//!
+//! Errors from wgpu are captured and returned, never swallowed: a frame with a validation error
+//! is an `Err`.
+
+use glam::{DVec3, Mat4, Vec3};
+use kiosk_core::camera::Camera;
+use kiosk_core::scene::{NodeId, Splat, Store};
+use std::collections::{HashMap, HashSet};
+use std::sync::{Arc, Mutex};
+use wgpu::util::DeviceExt;
+
+/// The splat shader (validated by a test with naga).
+pub const SPLAT_WGSL: &str = include_str!("../../../shaders/splat.wgsl");
+/// The eye-dome lighting shader.
+pub const EDL_WGSL: &str = include_str!("../../../shaders/edl.wgsl");
+
+/// Colour format of offscreen images.
+pub const OFFSCREEN_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// Why rendering failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// No GPU adapter (install lavapipe: `mesa-vulkan-drivers libvulkan1`).
+    #[error(
+        "no GPU adapter found ({0}); on a machine without GPU install lavapipe (mesa-vulkan-drivers, libvulkan1)"
+    )]
+    NoAdapter(String),
+    /// The device could not be created.
+    #[error("cannot create the GPU device: {0}")]
+    Device(String),
+    /// wgpu reported an error.
+    #[error("GPU error: {0}")]
+    Gpu(String),
+    /// Reading back an image failed.
+    #[error("cannot read the image back: {0}")]
+    Readback(String),
+}
+
+/// A GPU device and queue, with wgpu's errors collected.
+pub struct Gpu {
+    /// The device.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+    /// What the adapter is (e.g. "llvmpipe … Vulkan Cpu").
+    pub adapter: wgpu::AdapterInfo,
+    errors: Arc<Mutex<Vec<String>>>,
+}
+
+impl Gpu {
+    /// A headless device (Vulkan: a real GPU, or lavapipe on machines without one), with
+    /// validation on.
+    pub fn headless() -> Result<Self, RenderError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+            backends: wgpu::Backends::VULKAN,
+            flags: wgpu::InstanceFlags::VALIDATION,
+            ..wgpu::InstanceDescriptor::new_without_display_handle()
+        });
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: None,
+            apply_limit_buckets: false,
+        }))
+        .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
+        Self::from_adapter(&adapter)
+    }
+
+    /// A device on an adapter chosen by the caller (e.g. compatible with a window surface).
+    pub fn from_adapter(adapter: &wgpu::Adapter) -> Result<Self, RenderError> {
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("isokiosk"),
+            required_features: wgpu::Features::empty(),
+            required_limits: wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits()),
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        }))
+        .map_err(|e| RenderError::Device(e.to_string()))?;
+        let errors = Arc::new(Mutex::new(Vec::new()));
+        let sink = errors.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            if let Ok(mut v) = sink.lock() {
+                v.push(e.to_string());
+            }
+        }));
+        Ok(Self { device, queue, adapter: adapter.get_info(), errors })
+    }
+
+    /// The errors wgpu reported since the last call, as one error.
+    pub fn check(&self) -> Result<(), RenderError> {
+        let mut v = self.errors.lock().map_err(|_| RenderError::Gpu("error log poisoned".into()))?;
+        if v.is_empty() { Ok(()) } else { Err(RenderError::Gpu(std::mem::take(&mut *v).join("; "))) }
+    }
+}
+
+/// How splats are drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SplatMode {
+    /// Oriented discs (high quality).
+    Splats,
+    /// Screen-aligned round points (fallback).
+    Points,
+}
+
+/// Rendering settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderSettings {
+    /// Splats or round points.
+    pub mode: SplatMode,
+    /// Multiplies every splat radius.
+    pub radius_scale: f32,
+    /// Direction toward the user light (model axes).
+    pub light_dir: Vec3,
+    /// Weight of the user light against the headlight.
+    pub light_mix: f32,
+    /// Ambient term.
+    pub ambient: f32,
+    /// Eye-dome lighting strength (0: off).
+    pub edl_strength: f32,
+    /// Eye-dome lighting neighbour distance in pixels.
+    pub edl_radius: f32,
+    /// Background colour (linear RGBA).
+    pub background: [f64; 4],
+    /// GPU memory the node cache may use.
+    pub gpu_budget_bytes: u64,
+    /// Largest upload per frame (the rest waits; cached ancestors stand in).
+    pub upload_budget_bytes: u64,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self {
+            mode: SplatMode::Splats,
+            radius_scale: 1.0,
+            light_dir: Vec3::new(0.4, 0.8, 0.5),
+            light_mix: 0.35,
+            ambient: 0.12,
+            edl_strength: 0.0,
+            edl_radius: 1.5,
+            background: [0.02, 0.02, 0.025, 1.0],
+            gpu_budget_bytes: 512 << 20,
+            upload_budget_bytes: 48 << 20,
+        }
+    }
+}
+
+/// What a frame did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FrameStats {
+    /// Nodes drawn.
+    pub nodes: usize,
+    /// Splats drawn.
+    pub splats: u64,
+    /// Nodes uploaded this frame.
+    pub uploads: usize,
+    /// Bytes uploaded this frame.
+    pub uploaded_bytes: u64,
+    /// Visible nodes drawn as a cached ancestor (not uploaded yet).
+    pub substituted: usize,
+    /// Bytes held by the cache after the frame.
+    pub cache_bytes: u64,
+}
+
+/// Needs to be kept in sync with `Frame` in shaders/splat.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct FrameUniforms {
+    clip_from_camera: [[f32; 4]; 4],
+    offset: [f32; 4],
+    camera_right: [f32; 4],
+    camera_up: [f32; 4],
+    light_dir: [f32; 4],
+    view_dir: [f32; 4],
+    params: [f32; 4],
+}
+
+/// Needs to be kept in sync with `Edl` in shaders/edl.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct EdlUniforms {
+    params: [f32; 4],
+}
+
+struct CacheEntry {
+    buffer: wgpu::Buffer,
+    count: u32,
+    bytes: u64,
+    last_used: u64,
+}
+
+struct Targets {
+    size: (u32, u32),
+    depth: wgpu::TextureView,
+    /// Intermediate colour for the EDL pass.
+    color: wgpu::TextureView,
+    edl_group: wgpu::BindGroup,
+}
+
+/// The renderer for one colour format.
+pub struct Renderer {
+    format: wgpu::TextureFormat,
+    pipeline: wgpu::RenderPipeline,
+    edl_pipeline: wgpu::RenderPipeline,
+    edl_layout: wgpu::BindGroupLayout,
+    uniforms: wgpu::Buffer,
+    edl_uniforms: wgpu::Buffer,
+    group: wgpu::BindGroup,
+    cache: HashMap<NodeId, CacheEntry>,
+    cache_bytes: u64,
+    /// Which store the cache holds nodes of (index checksum, length, origin).
+    cache_store: Option<(u32, u64, [u64; 3])>,
+    frame: u64,
+    targets: Option<Targets>,
+}
+
+impl Renderer {
+    /// A renderer drawing into views of `format`.
+    pub fn new(gpu: &Gpu, format: wgpu::TextureFormat) -> Self {
+        let device = &gpu.device;
+        let splat = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("splat.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(SPLAT_WGSL.into()),
+        });
+        let edl = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("edl.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(EDL_WGSL.into()),
+        });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("frame"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            }],
+        });
+        let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("frame uniforms"),
+            size: std::mem::size_of::<FrameUniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("frame"),
+            layout: &layout,
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: uniforms.as_entire_binding() }],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("splats"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        // Needs to be kept in sync with `Splat` (24 bytes).
+        const ATTRS: [wgpu::VertexAttribute; 4] =
+            wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32, 2 => Snorm16x2, 3 => Unorm8x4];
+        let instance_layout = wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<Splat>() as u64,
+            step_mode: wgpu::VertexStepMode::Instance,
+            attributes: &ATTRS,
+        };
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("splats"),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &splat,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(instance_layout)],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleStrip,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: wgpu::StencilState::default(),
+                bias: wgpu::DepthBiasState::default(),
+            }),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &splat,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(format.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let edl_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("edl"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Depth,
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let edl_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("edl"),
+            bind_group_layouts: &[Some(&edl_layout)],
+            immediate_size: 0,
+        });
+        let edl_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("edl"),
+            layout: Some(&edl_pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &edl,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &edl,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(format.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let edl_uniforms = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("edl uniforms"),
+            size: std::mem::size_of::<EdlUniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Self {
+            format,
+            pipeline,
+            edl_pipeline,
+            edl_layout,
+            uniforms,
+            edl_uniforms,
+            group,
+            cache: HashMap::new(),
+            cache_bytes: 0,
+            cache_store: None,
+            frame: 0,
+            targets: None,
+        }
+    }
+
+    /// The colour format it draws into.
+    pub fn format(&self) -> wgpu::TextureFormat {
+        self.format
+    }
+
+    fn targets(&mut self, gpu: &Gpu, size: (u32, u32)) -> &Targets {
+        if self.targets.as_ref().is_none_or(|t| t.size != size) {
+            let extent =
+                wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 };
+            let tex = |label, format, usage| {
+                gpu.device
+                    .create_texture(&wgpu::TextureDescriptor {
+                        label: Some(label),
+                        size: extent,
+                        mip_level_count: 1,
+                        sample_count: 1,
+                        dimension: wgpu::TextureDimension::D2,
+                        format,
+                        usage,
+                        view_formats: &[],
+                    })
+                    .create_view(&Default::default())
+            };
+            let attach = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+            let depth = tex("depth", DEPTH_FORMAT, attach);
+            let color = tex("edl input", self.format, attach);
+            let edl_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("edl"),
+                layout: &self.edl_layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: self.edl_uniforms.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&color) },
+                    wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&depth) },
+                ],
+            });
+            self.targets = Some(Targets { size, depth, color, edl_group });
+        }
+        self.targets.as_ref().unwrap_or_else(|| unreachable!("just created"))
+    }
+
+    /// Makes the visible nodes resident (within the upload budget) and returns what to draw.
+    fn resident<B: AsRef<[u8]>>(
+        &mut self,
+        gpu: &Gpu,
+        store: &Store<B>,
+        nodes: &[NodeId],
+        settings: &RenderSettings,
+        stats: &mut FrameStats,
+    ) -> Vec<NodeId> {
+        self.frame += 1;
+        let frame = self.frame;
+        // Node ids are per store: another model empties the cache.
+        let h = store.header();
+        let key = (h.index_crc, h.file_len, h.origin.map(f64::to_bits));
+        if self.cache_store != Some(key) {
+            self.cache.clear();
+            self.cache_bytes = 0;
+            self.cache_store = Some(key);
+        }
+        let mut draw = Vec::with_capacity(nodes.len());
+        let mut seen = HashSet::new();
+        let upload = |r: &mut Self, id: NodeId, stats: &mut FrameStats| {
+            let splats = store.splats(id);
+            let bytes: &[u8] = bytemuck::cast_slice(splats);
+            let buffer = gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("node"),
+                contents: bytes,
+                usage: wgpu::BufferUsages::VERTEX,
+            });
+            r.cache.insert(
+                id,
+                CacheEntry {
+                    buffer,
+                    count: splats.len() as u32,
+                    bytes: bytes.len() as u64,
+                    last_used: frame,
+                },
+            );
+            r.cache_bytes += bytes.len() as u64;
+            stats.uploads += 1;
+            stats.uploaded_bytes += bytes.len() as u64;
+        };
+        for &id in nodes {
+            if let Some(e) = self.cache.get_mut(&id) {
+                e.last_used = frame;
+                if seen.insert(id) {
+                    draw.push(id);
+                }
+                continue;
+            }
+            let size = u64::from(store.node(id).point_count) * std::mem::size_of::<Splat>() as u64;
+            if stats.uploaded_bytes + size <= settings.upload_budget_bytes || stats.uploaded_bytes == 0 {
+                upload(self, id, stats);
+                if seen.insert(id) {
+                    draw.push(id);
+                }
+                continue;
+            }
+            // Over budget: the nearest cached ancestor stands in (the root, at worst, uploaded).
+            let mut a = store.node(id).parent;
+            while a != u32::MAX && !self.cache.contains_key(&a) {
+                a = store.node(a).parent;
+            }
+            let stand_in = if a == u32::MAX {
+                let root = store.root();
+                if !self.cache.contains_key(&root) {
+                    upload(self, root, stats);
+                }
+                root
+            } else {
+                a
+            };
+            if let Some(e) = self.cache.get_mut(&stand_in) {
+                e.last_used = frame;
+            }
+            stats.substituted += 1;
+            if seen.insert(stand_in) {
+                draw.push(stand_in);
+            }
+        }
+        // Evict least recently used nodes not drawn this frame.
+        if self.cache_bytes > settings.gpu_budget_bytes {
+            let mut old: Vec<(u64, NodeId)> = self
+                .cache
+                .iter()
+                .filter(|(_, e)| e.last_used < frame)
+                .map(|(id, e)| (e.last_used, *id))
+                .collect();
+            old.sort_unstable();
+            for (_, id) in old {
+                if self.cache_bytes <= settings.gpu_budget_bytes {
+                    break;
+                }
+                if let Some(e) = self.cache.remove(&id) {
+                    self.cache_bytes -= e.bytes;
+                }
+            }
+        }
+        stats.cache_bytes = self.cache_bytes;
+        draw
+    }
+
+    /// Draws `nodes` (a cut's visible nodes) of `store` seen by `camera` into `target`, of
+    /// `size` pixels.
+    #[expect(clippy::too_many_arguments, reason = "one frame's inputs; a struct would only rename them")]
+    pub fn render<B: AsRef<[u8]>>(
+        &mut self,
+        gpu: &Gpu,
+        store: &Store<B>,
+        nodes: &[NodeId],
+        camera: &Camera,
+        target: &wgpu::TextureView,
+        size: (u32, u32),
+        settings: &RenderSettings,
+    ) -> Result<FrameStats, RenderError> {
+        let mut stats = FrameStats::default();
+        let draw = self.resident(gpu, store, nodes, settings, &mut stats);
+        let (near, far) = depth_range(store, camera);
+        let uniforms = frame_uniforms(store.origin(), camera, size, (near, far), settings);
+        gpu.queue.write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
+        let edl_on = settings.edl_strength > 0.0;
+        gpu.queue.write_buffer(
+            &self.edl_uniforms,
+            0,
+            bytemuck::bytes_of(&EdlUniforms {
+                params: [settings.edl_strength, settings.edl_radius, near, far],
+            }),
+        );
+        self.targets(gpu, size);
+        let t = self.targets.as_ref().ok_or_else(|| RenderError::Gpu("no render targets".into()))?;
+        let mut enc =
+            gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+        let [r, g, b, a] = settings.background;
+        {
+            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("splats"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: if edl_on { &t.color } else { target },
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &t.depth,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &self.group, &[]);
+            for id in &draw {
+                if let Some(e) = self.cache.get(id)
+                    && e.count > 0
+                {
+                    pass.set_vertex_buffer(0, e.buffer.slice(..));
+                    pass.draw(0..4, 0..e.count);
+                    stats.nodes += 1;
+                    stats.splats += u64::from(e.count);
+                }
+            }
+        }
+        if edl_on {
+            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("edl"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: target,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.edl_pipeline);
+            pass.set_bind_group(0, &t.edl_group, &[]);
+            pass.draw(0..3, 0..1);
+        }
+        gpu.queue.submit([enc.finish()]);
+        gpu.check()?;
+        Ok(stats)
+    }
+
+    /// Renders offscreen and returns the image (sRGB RGBA8).
+    pub fn render_image<B: AsRef<[u8]>>(
+        &mut self,
+        gpu: &Gpu,
+        store: &Store<B>,
+        nodes: &[NodeId],
+        camera: &Camera,
+        size: (u32, u32),
+        settings: &RenderSettings,
+    ) -> Result<(image::RgbaImage, FrameStats), RenderError> {
+        let (w, h) = (size.0.max(1), size.1.max(1));
+        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("offscreen"),
+            size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: self.format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&Default::default());
+        let stats = self.render(gpu, store, nodes, camera, &view, (w, h), settings)?;
+        let image = read_back(gpu, &texture, (w, h))?;
+        Ok((image, stats))
+    }
+}
+
+/// Copies a `Rgba8UnormSrgb` (or `Rgba8Unorm`) texture into an image.
+pub fn read_back(
+    gpu: &Gpu,
+    texture: &wgpu::Texture,
+    (w, h): (u32, u32),
+) -> Result<image::RgbaImage, RenderError> {
+    let unpadded = w * 4;
+    let padded = unpadded.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: u64::from(padded) * u64::from(h),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut enc =
+        gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+    enc.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded),
+                rows_per_image: Some(h),
+            },
+        },
+        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+    );
+    let index = gpu.queue.submit([enc.finish()]);
+    let (tx, rx) = std::sync::mpsc::channel();
+    buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    gpu.device
+        .poll(wgpu::PollType::Wait { submission_index: Some(index), timeout: None })
+        .map_err(|e| RenderError::Readback(e.to_string()))?;
+    rx.recv()
+        .map_err(|e| RenderError::Readback(e.to_string()))?
+        .map_err(|e| RenderError::Readback(e.to_string()))?;
+    let mut rgba = Vec::with_capacity((unpadded * h) as usize);
+    {
+        let view = buffer.slice(..).get_mapped_range().map_err(|e| RenderError::Readback(e.to_string()))?;
+        for row in view.chunks_exact(padded as usize) {
+            rgba.extend_from_slice(&row[..unpadded as usize]);
+        }
+    }
+    buffer.unmap();
+    gpu.check()?;
+    image::RgbaImage::from_raw(w, h, rgba).ok_or_else(|| RenderError::Readback("size mismatch".into()))
+}
+
+/// Near and far planes around the model as seen from the camera.
+fn depth_range<B: AsRef<[u8]>>(store: &Store<B>, camera: &Camera) -> (f32, f32) {
+    let bbox = store.bbox();
+    let diag = f64::from(bbox.diagonal()).max(1e-30);
+    let eye = store.to_local(camera.eye);
+    let nearest = f64::from(bbox.distance_squared(eye).sqrt());
+    let corners = [bbox.min, bbox.max];
+    let mut farthest: f64 = 0.0;
+    for x in 0..2 {
+        for y in 0..2 {
+            for z in 0..2 {
+                let c = Vec3::new(corners[x].x, corners[y].y, corners[z].z);
+                farthest = farthest.max(f64::from((c - eye).length()));
+            }
+        }
+    }
+    let near = (nearest * 0.5).max(diag * 1e-6);
+    let far = (farthest * 1.01).max(near * 2.0);
+    (near as f32, far as f32)
+}
+
+fn frame_uniforms(
+    origin: DVec3,
+    camera: &Camera,
+    size: (u32, u32),
+    (near, far): (f32, f32),
+    s: &RenderSettings,
+) -> FrameUniforms {
+    let forward = camera.forward();
+    let right = camera.right();
+    let up = right.cross(forward);
+    let view = glam::camera::rh::view::look_to_mat4(Vec3::ZERO, forward.as_vec3(), up.as_vec3());
+    let aspect = size.0.max(1) as f32 / size.1.max(1) as f32;
+    let proj = glam::camera::rh::proj::directx::perspective(camera.fov_y as f32, aspect, near, far);
+    let clip: Mat4 = proj * view;
+    let offset = (origin - camera.eye).as_vec3();
+    let mode = match s.mode {
+        SplatMode::Splats => 0.0,
+        SplatMode::Points => 1.0,
+    };
+    FrameUniforms {
+        clip_from_camera: clip.to_cols_array_2d(),
+        offset: offset.extend(0.0).to_array(),
+        camera_right: right.as_vec3().extend(0.0).to_array(),
+        camera_up: up.as_vec3().extend(0.0).to_array(),
+        light_dir: s.light_dir.normalize_or_zero().extend(0.0).to_array(),
+        view_dir: forward.as_vec3().extend(0.0).to_array(),
+        params: [mode, s.radius_scale, s.ambient, s.light_mix],
+    }
+}

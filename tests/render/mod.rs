@@ -1,0 +1,265 @@
+//! The renderer on lavapipe (software Vulkan; installed by `.ci/setup`): shaders validated by
+//! naga, golden images at a stated perceptual tolerance, the georeferenced offset, close-ups
+//! without holes, bounded uploads. A test that cannot get an adapter fails, loudly.
+
+use crate::common;
+use glam::DVec3;
+use kiosk::MappedStore;
+use kiosk_core::camera::Camera;
+use kiosk_render::{Gpu, RenderSettings, Renderer, SplatMode};
+use std::path::PathBuf;
+use std::sync::{Mutex, OnceLock};
+
+/// The perceptual tolerance of golden images: mean SSIM over 8×8 windows of the luminance.
+const MIN_SSIM: f64 = 0.97;
+
+/// One GPU for the whole test binary (lavapipe is slow to start; tests take turns).
+fn gpu() -> &'static Mutex<(Gpu, Renderer)> {
+    static GPU: OnceLock<Mutex<(Gpu, Renderer)>> = OnceLock::new();
+    GPU.get_or_init(|| {
+        let (gpu, renderer) = kiosk::snapshot::offscreen().unwrap_or_else(|e| {
+            panic!("no GPU adapter: {e:#}. Run .ci/setup (installs lavapipe) — GPU tests never skip.")
+        });
+        Mutex::new((gpu, renderer))
+    })
+}
+
+fn render(
+    store: &MappedStore,
+    camera: &Camera,
+    size: (u32, u32),
+    settings: &RenderSettings,
+) -> image::RgbaImage {
+    let mut g = gpu().lock().unwrap_or_else(|e| e.into_inner());
+    let (gpu, renderer) = &mut *g;
+    kiosk::snapshot::snapshot(gpu, renderer, store, camera, size, 1.0, settings)
+        .unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+fn luminance(img: &image::RgbaImage) -> Vec<f64> {
+    img.pixels()
+        .map(|p| 0.299 * f64::from(p[0]) + 0.587 * f64::from(p[1]) + 0.114 * f64::from(p[2]))
+        .collect()
+}
+
+/// Mean SSIM over 8×8 windows (Wang et al. 2004 constants, 8-bit range).
+pub fn ssim(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
+    assert_eq!(a.dimensions(), b.dimensions());
+    let (w, h) = a.dimensions();
+    let (la, lb) = (luminance(a), luminance(b));
+    let (c1, c2) = ((0.01f64 * 255.0).powi(2), (0.03f64 * 255.0).powi(2));
+    let mut total = 0.0;
+    let mut n = 0;
+    for by in (0..h.saturating_sub(7)).step_by(4) {
+        for bx in (0..w.saturating_sub(7)).step_by(4) {
+            let idx = |x: u32, y: u32| ((by + y) * w + bx + x) as usize;
+            let (mut ma, mut mb) = (0.0, 0.0);
+            for y in 0..8 {
+                for x in 0..8 {
+                    ma += la[idx(x, y)];
+                    mb += lb[idx(x, y)];
+                }
+            }
+            ma /= 64.0;
+            mb /= 64.0;
+            let (mut va, mut vb, mut cov) = (0.0, 0.0, 0.0);
+            for y in 0..8 {
+                for x in 0..8 {
+                    let (da, db) = (la[idx(x, y)] - ma, lb[idx(x, y)] - mb);
+                    va += da * da;
+                    vb += db * db;
+                    cov += da * db;
+                }
+            }
+            let (va, vb, cov) = (va / 63.0, vb / 63.0, cov / 63.0);
+            total += ((2.0 * ma * mb + c1) * (2.0 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2));
+            n += 1;
+        }
+    }
+    total / f64::from(n.max(1))
+}
+
+fn golden_dir() -> PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden")
+}
+
+/// Compares with `tests/golden/NAME.png`; on a difference writes `NAME.actual.png` and
+/// `NAME.diff.png` beside it and fails. `ISOKIOSK_BLESS=1` writes the golden instead.
+fn assert_golden(name: &str, img: &image::RgbaImage) {
+    let dir = golden_dir();
+    let golden = dir.join(format!("{name}.png"));
+    if std::env::var_os("ISOKIOSK_BLESS").is_some() {
+        img.save(&golden).expect("write golden");
+        return;
+    }
+    let actual = dir.join(format!("{name}.actual.png"));
+    let Ok(reference) = image::open(&golden).map(|i| i.to_rgba8()) else {
+        img.save(&actual).expect("write actual");
+        panic!(
+            "no golden image {} (candidate written to {}; bless with ISOKIOSK_BLESS=1)",
+            golden.display(),
+            actual.display()
+        );
+    };
+    let s = if reference.dimensions() == img.dimensions() { ssim(&reference, img) } else { 0.0 };
+    if s < MIN_SSIM {
+        img.save(&actual).expect("write actual");
+        let (w, h) = img.dimensions();
+        let diff = image::RgbaImage::from_fn(w, h, |x, y| {
+            let (a, b) = (
+                img.get_pixel(x, y),
+                reference.get_pixel(x.min(reference.width() - 1), y.min(reference.height() - 1)),
+            );
+            let d = (0..3).map(|c| (i16::from(a[c]) - i16::from(b[c])).unsigned_abs()).max().unwrap_or(0);
+            image::Rgba([(d * 4).min(255) as u8, 0, 0, 255])
+        });
+        diff.save(dir.join(format!("{name}.diff.png"))).expect("write diff");
+        panic!(
+            "{name}: SSIM {s:.4} < {MIN_SSIM} against {} (see {name}.actual.png and {name}.diff.png)",
+            golden.display()
+        );
+    }
+}
+
+#[test]
+fn every_wgsl_file_validates_with_naga() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+    let mut n = 0;
+    for e in std::fs::read_dir(&dir).expect("shaders/") {
+        let p = e.expect("entry").path();
+        if p.extension().is_some_and(|x| x == "wgsl") {
+            let src = std::fs::read_to_string(&p).expect("read");
+            let module = naga::front::wgsl::parse_str(&src)
+                .unwrap_or_else(|e| panic!("{}: {}", p.display(), e.emit_to_string(&src)));
+            naga::valid::Validator::new(
+                naga::valid::ValidationFlags::all(),
+                naga::valid::Capabilities::all(),
+            )
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("{}: {}", p.display(), e.emit_to_string(&src)));
+            n += 1;
+        }
+    }
+    assert!(n >= 2, "expected the splat and EDL shaders, found {n}");
+}
+
+#[test]
+fn gpu_adapter_is_available() {
+    let g = gpu().lock().unwrap_or_else(|e| e.into_inner());
+    assert!(!g.0.adapter.name.is_empty());
+}
+
+fn bunny() -> &'static common::Built {
+    static B: OnceLock<common::Built> = OnceLock::new();
+    B.get_or_init(|| {
+        common::build(&common::read("scans/stanford-bunny/bun_zipper.ply"), common::small_nodes())
+    })
+}
+
+fn bust() -> &'static common::Built {
+    static B: OnceLock<common::Built> = OnceLock::new();
+    B.get_or_init(|| {
+        common::build(&common::read("scans/demosthenes/demosthenes-low-res.obj"), common::small_nodes())
+    })
+}
+
+fn start(store: &MappedStore) -> Camera {
+    kiosk_core::replay::initial_camera(store, 0.8, DVec3::Y)
+}
+
+#[test]
+fn golden_images_of_real_scans() {
+    let size = (160, 120);
+    let splats = RenderSettings::default();
+    let points = RenderSettings { mode: SplatMode::Points, ..RenderSettings::default() };
+    let edl = RenderSettings { edl_strength: 0.5, ..RenderSettings::default() };
+    assert_golden("bunny-splats", &render(&bunny().store, &start(&bunny().store), size, &splats));
+    assert_golden("bunny-points", &render(&bunny().store, &start(&bunny().store), size, &points));
+    assert_golden("bust-splats", &render(&bust().store, &start(&bust().store), size, &splats));
+    assert_golden("bust-edl", &render(&bust().store, &start(&bust().store), size, &edl));
+}
+
+#[test]
+fn the_model_translated_by_ten_million_metres_renders_the_same_image() {
+    let pts = common::read("scans/demosthenes/demosthenes-low-res.obj");
+    let offset = DVec3::new(1.0e7, -4.0e6, 2.5e6);
+    let far = common::build(&common::transform(&pts, 1.0, offset), common::small_nodes());
+    let near_cam = start(&bust().store);
+    let far_cam = Camera { eye: near_cam.eye + offset, target: near_cam.target + offset, ..near_cam };
+    let size = (200, 150);
+    let a = render(&bust().store, &near_cam, size, &RenderSettings::default());
+    let b = render(&far.store, &far_cam, size, &RenderSettings::default());
+    let s = ssim(&a, &b);
+    assert!(s > 0.995, "SSIM {s}");
+}
+
+#[test]
+fn a_close_up_at_the_minimum_distance_has_no_holes() {
+    let store = &bunny().store;
+    let cut = kiosk_core::Cut::leaves(store);
+    let diag = f64::from(store.bbox().diagonal());
+    let min = 0.01 * diag;
+    // Look at the surface from the minimum distance, along the surface normal at a sample.
+    let p = store.to_model(store.splats(cut.nodes()[cut.nodes().len() / 2])[100].position());
+    let n = store.splats(cut.nodes()[cut.nodes().len() / 2])[100].normal().as_dvec3();
+    let center = store.to_model(store.bbox().center());
+    let n = if n.dot(p - center) < 0.0 { -n } else { n };
+    let cam = Camera {
+        eye: p + n * min,
+        target: p,
+        up: kiosk_core::camera::orthonormal_up(-n, DVec3::Y, DVec3::Z),
+        fov_y: 0.8,
+    };
+    let img = render(store, &cam, (96, 96), &RenderSettings::default());
+    let bg = RenderSettings::default().background;
+    let is_bg = |px: &image::Rgba<u8>| {
+        let srgb = |c: f64| {
+            (255.0 * if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }).round()
+                as i32
+        };
+        (0..3).all(|k| (i32::from(px[k]) - srgb(bg[k])).abs() <= 2)
+    };
+    // The central half of the image is surface everywhere: no background shows through.
+    let holes = (24..72)
+        .flat_map(|y| (24..72).map(move |x| (x, y)))
+        .filter(|&(x, y)| is_bg(img.get_pixel(x, y)))
+        .count();
+    assert_eq!(holes, 0, "{holes} background pixels in the close-up");
+}
+
+#[test]
+fn bounded_uploads_substitute_cached_ancestors() {
+    let store = &bunny().store;
+    let mut g = gpu().lock().unwrap_or_else(|e| e.into_inner());
+    let (gpu, _) = &mut *g;
+    let mut renderer = Renderer::new(gpu, kiosk_render::OFFSCREEN_FORMAT);
+    let cam = start(store);
+    let view = cam.view_params(store, (160, 120)).expect("view");
+    let cut = kiosk_core::Cut::leaves(store);
+    let nodes = cut.visible_nodes(store, &view);
+    let tight = RenderSettings { upload_budget_bytes: 64 << 10, ..RenderSettings::default() };
+    let (_, first) = renderer.render_image(gpu, store, &nodes, &cam, (160, 120), &tight).expect("frame");
+    assert!(first.substituted > 0, "{first:?}");
+    assert!(first.uploaded_bytes <= (64 << 10) + 24 * u64::from(store.node(store.root()).point_count));
+    // Frame after frame the cache fills and nothing is substituted any more.
+    let mut last = first;
+    for _ in 0..200 {
+        last = renderer.render_image(gpu, store, &nodes, &cam, (160, 120), &tight).expect("frame").1;
+        if last.substituted == 0 {
+            break;
+        }
+    }
+    assert_eq!(last.substituted, 0);
+    assert_eq!(last.nodes, nodes.len());
+}
+
+#[test]
+fn one_renderer_switches_between_models() {
+    // The node cache is per model: drawing another store must not reuse its buffers.
+    let size = (160, 120);
+    let s = RenderSettings::default();
+    let a1 = render(&bust().store, &start(&bust().store), size, &s);
+    let _ = render(&bunny().store, &start(&bunny().store), size, &s);
+    let a2 = render(&bust().store, &start(&bust().store), size, &s);
+    assert!(ssim(&a1, &a2) > 0.999);
+}
