@@ -20,6 +20,8 @@ use std::collections::{HashMap, HashSet};
 use std::sync::{Arc, Mutex};
 use wgpu::util::DeviceExt;
 
+pub use wgpu;
+
 /// The splat shader (validated by a test with naga).
 pub const SPLAT_WGSL: &str = include_str!("../../../shaders/splat.wgsl");
 /// The eye-dome lighting shader.
@@ -97,6 +99,12 @@ impl Gpu {
             }
         }));
         Ok(Self { device, queue, adapter: adapter.get_info(), errors })
+    }
+
+    /// Waits until the GPU has finished all submitted work (for timing and tests).
+    pub fn wait(&self) -> Result<(), RenderError> {
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| RenderError::Gpu(e.to_string()))?;
+        Ok(())
     }
 
     /// The errors wgpu reported since the last call, as one error.

@@ -1,0 +1,242 @@
+//! `cargo bench --bench render [-- --quick]`: the renderer's numbers (README). No GPU here: the
+//! adapter is lavapipe (software Vulkan); the command is the same on a GPU.
+//!
+//! 1. Splats per second and ms per frame at 1920×1080 (1 px cut) for a real scan and the
+//!    synthetic 50 M-point model (left in target/bench by `cargo bench --bench scene`).
+//! 2. CPU cost per frame of the cut update and of the uploads while the camera moves.
+//! 3. Speed against accuracy: pixel tolerance of the cut against frame time, splats drawn and
+//!    image error (PSNR, SSIM) against a full-resolution render (table and
+//!    `target/bench/render-tradeoff.svg`).
+
+use glam::DVec3;
+use kiosk::MappedStore;
+use kiosk_core::camera::Camera;
+use kiosk_core::{Cut, CutParams};
+use kiosk_render::{Gpu, OFFSCREEN_FORMAT, RenderSettings, wgpu};
+use plotters::prelude::*;
+use std::path::Path;
+use std::time::Instant;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn target(gpu: &Gpu, (w, h): (u32, u32)) -> (wgpu::Texture, wgpu::TextureView) {
+    let t = gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("bench target"),
+        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: OFFSCREEN_FORMAT,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    let v = t.create_view(&Default::default());
+    (t, v)
+}
+
+fn orbit(store: &MappedStore, k: usize, dist: f64) -> Camera {
+    let c = store.to_model(store.bbox().center());
+    let diag = f64::from(store.bbox().diagonal());
+    let a = k as f64 * 0.05;
+    let mut cam = Camera {
+        eye: c + DVec3::new(a.cos(), 0.25, a.sin()) * diag * dist,
+        target: c,
+        up: DVec3::Y,
+        fov_y: 0.8,
+    };
+    cam.up = kiosk_core::camera::orthonormal_up(cam.forward(), DVec3::Y, DVec3::Z);
+    cam
+}
+
+fn main() -> anyhow::Result<()> {
+    let quick = std::env::args().any(|a| a == "--quick");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out_dir = root.join("target/bench");
+    std::fs::create_dir_all(&out_dir)?;
+    let (gpu, mut renderer) = kiosk::snapshot::offscreen()?;
+    println!("adapter: {} ({:?}, {:?})", gpu.adapter.name, gpu.adapter.backend, gpu.adapter.device_type);
+    let dir = tempfile::tempdir()?;
+    let scan = {
+        let shared = root.join("../shared/data/scans/stanford-dragon/dragon_vrip.ply.gz");
+        if shared.exists() {
+            shared
+        } else {
+            root.join("tests/data/scans/stanford-dragon/dragon_vrip.ply.gz")
+        }
+    };
+    let scan_store = dir.path().join("dragon.kstore");
+    kiosk::import::import(&scan, &scan_store, &Default::default())?;
+    let mut models = vec![("dragon (437 k)".to_string(), kiosk::open_store(&scan_store)?)];
+    let big = out_dir.join("synthetic-50000000.kstore");
+    if big.exists() {
+        models.push(("synthetic 50 M".into(), kiosk::open_store(&big)?));
+    } else {
+        println!(
+            "(no target/bench/synthetic-50000000.kstore: run `cargo bench --bench scene -- --points 50000000` first)"
+        );
+    }
+    let size = (1920u32, 1080u32);
+    let (_t, view) = target(&gpu, size);
+    let settings = RenderSettings::default();
+    println!(
+        "\n## Frames at 1920×1080, 1 px cut, camera orbiting (GPU time included: each frame waits for the GPU)"
+    );
+    println!(
+        "| model | frames | median splats drawn | median ms per frame | M splats/s | median CPU ms cut update | median CPU ms render call (uploads, encoding) | MB uploaded in all |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    for (name, store) in &models {
+        let frames = if quick { 3 } else { 12 };
+        let mut cut = Cut::root(store);
+        let (mut ms, mut splats, mut cut_ms, mut cpu_ms, mut uploaded) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), 0u64);
+        for k in 0..frames {
+            let cam = orbit(store, k, 0.7);
+            let v = cam.view_params(store, size).expect("view");
+            let t0 = Instant::now();
+            cut.update(store, &v, &CutParams::default());
+            let t1 = Instant::now();
+            let nodes = cut.visible_nodes(store, &v);
+            let st = renderer.render(&gpu, store, &nodes, &cam, &view, size, &settings)?;
+            let t2 = Instant::now();
+            gpu.wait()?;
+            let t3 = Instant::now();
+            cut_ms.push((t1 - t0).as_secs_f64() * 1e3);
+            cpu_ms.push((t2 - t1).as_secs_f64() * 1e3);
+            ms.push((t3 - t0).as_secs_f64() * 1e3);
+            splats.push(st.splats as f64);
+            uploaded += st.uploaded_bytes;
+        }
+        let m = median(ms.clone());
+        let s = median(splats);
+        println!(
+            "| {name} | {frames} | {s:.0} | {m:.0} | {:.2} | {:.3} | {:.1} | {:.0} |",
+            s / m / 1e3,
+            median(cut_ms),
+            median(cpu_ms),
+            uploaded as f64 / 1e6
+        );
+    }
+
+    // Speed against accuracy on the real scan, at 960×540.
+    let store = &models[0].1;
+    let small = (960u32, 540u32);
+    let cam = orbit(store, 3, 0.45);
+    let v = cam.view_params(store, small).expect("view");
+    let full = Cut::leaves(store);
+    let (reference, _) =
+        renderer.render_image(&gpu, store, &full.visible_nodes(store, &v), &cam, small, &settings)?;
+    println!("\n## Speed against accuracy: cut tolerance (dragon, 960×540; reference: full resolution)");
+    println!("| tolerance px | nodes | splats drawn | ms per frame | PSNR dB | SSIM |");
+    println!("|---|---|---|---|---|---|");
+    let mut series = Vec::new();
+    for tol in [0.5f32, 1.0, 2.0, 4.0, 8.0, 16.0] {
+        let mut cut = Cut::root(store);
+        cut.update(
+            store,
+            &v,
+            &CutParams { tolerance_px: tol, max_changes: usize::MAX, ..CutParams::default() },
+        );
+        let nodes = cut.visible_nodes(store, &v);
+        // Warm the cache, then time.
+        renderer.render_image(&gpu, store, &nodes, &cam, small, &settings)?;
+        let mut t = Vec::new();
+        let mut last = None;
+        for _ in 0..if quick { 2 } else { 5 } {
+            let t0 = Instant::now();
+            let r = renderer.render_image(&gpu, store, &nodes, &cam, small, &settings)?;
+            t.push(t0.elapsed().as_secs_f64() * 1e3);
+            last = Some(r);
+        }
+        let (img, st) = last.expect("frames");
+        let p = psnr(&img, &reference);
+        let s = ssim(&img, &reference);
+        let ms = median(t);
+        println!("| {tol} | {} | {} | {ms:.1} | {p:.2} | {s:.4} |", st.nodes, st.splats);
+        series.push((tol, ms, p, s));
+    }
+    let svg = out_dir.join("render-tradeoff.svg");
+    {
+        let root = SVGBackend::new(&svg, (800, 500)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let xmax = series.iter().map(|s| s.1).fold(0.0, f64::max) * 1.1;
+        let (ymin, ymax) = series.iter().fold((f64::INFINITY, 0.0f64), |(a, b), s| (a.min(s.2), b.max(s.2)));
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                "Renderer: cut tolerance 0.5…16 px — frame time vs PSNR (dragon, lavapipe)",
+                ("sans-serif", 18),
+            )
+            .margin(15)
+            .x_label_area_size(45)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..xmax, (ymin - 1.0)..(ymax + 1.0))?;
+        chart
+            .configure_mesh()
+            .x_desc("ms per frame (960×540)")
+            .y_desc("PSNR against full resolution, dB")
+            .draw()?;
+        chart.draw_series(LineSeries::new(series.iter().map(|s| (s.1, s.2)), BLUE.stroke_width(2)))?;
+        chart.draw_series(series.iter().map(|s| Circle::new((s.1, s.2), 4, BLUE.filled())))?;
+        chart.draw_series(
+            series
+                .iter()
+                .map(|s| Text::new(format!("{} px", s.0), (s.1, s.2 + 0.3), ("sans-serif", 12).into_font())),
+        )?;
+        root.present()?;
+    }
+    println!("\nplot: {}", svg.display());
+    Ok(())
+}
+
+fn psnr(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
+    let mse: f64 = a
+        .pixels()
+        .zip(b.pixels())
+        .map(|(p, q)| (0..3).map(|c| (f64::from(p[c]) - f64::from(q[c])).powi(2)).sum::<f64>())
+        .sum::<f64>()
+        / (3.0 * f64::from(a.width() * a.height()));
+    if mse == 0.0 { f64::INFINITY } else { 10.0 * (255.0f64 * 255.0 / mse).log10() }
+}
+
+/// Mean SSIM over 8×8 windows of the luminance (as in the golden-image tests).
+fn ssim(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
+    let lum = |i: &image::RgbaImage| -> Vec<f64> {
+        i.pixels()
+            .map(|p| 0.299 * f64::from(p[0]) + 0.587 * f64::from(p[1]) + 0.114 * f64::from(p[2]))
+            .collect()
+    };
+    let (w, h) = a.dimensions();
+    let (la, lb) = (lum(a), lum(b));
+    let (c1, c2) = ((0.01f64 * 255.0).powi(2), (0.03f64 * 255.0).powi(2));
+    let (mut total, mut n) = (0.0, 0u32);
+    for by in (0..h - 7).step_by(4) {
+        for bx in (0..w - 7).step_by(4) {
+            let idx = |x: u32, y: u32| ((by + y) * w + bx + x) as usize;
+            let (mut ma, mut mb) = (0.0, 0.0);
+            for y in 0..8 {
+                for x in 0..8 {
+                    ma += la[idx(x, y)];
+                    mb += lb[idx(x, y)];
+                }
+            }
+            ma /= 64.0;
+            mb /= 64.0;
+            let (mut va, mut vb, mut cov) = (0.0, 0.0, 0.0);
+            for y in 0..8 {
+                for x in 0..8 {
+                    let (da, db) = (la[idx(x, y)] - ma, lb[idx(x, y)] - mb);
+                    va += da * da;
+                    vb += db * db;
+                    cov += da * db;
+                }
+            }
+            let (va, vb, cov) = (va / 63.0, vb / 63.0, cov / 63.0);
+            total += ((2.0 * ma * mb + c1) * (2.0 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2));
+            n += 1;
+        }
+    }
+    total / f64::from(n.max(1))
+}
