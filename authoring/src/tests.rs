@@ -1,0 +1,113 @@
+//! The authoring actions on a real exhibit, headless: capture, attach, ROI paint → box,
+//! dependencies, validation, atomic save, reload → identical model; undo and redo.
+
+use super::*;
+use kiosk_core::replay::initial_camera;
+
+fn exhibit() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().expect("tmp");
+    let scan =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/scans/demosthenes/demosthenes-low-res.obj");
+    std::fs::copy(scan, dir.path().join("bust.obj")).expect("copy the scan");
+    dir
+}
+
+fn orbit(p: &Project, deg: f64) -> Camera {
+    let c = initial_camera(&p.store, 0.8, DVec3::Y);
+    let center = c.target;
+    let a = deg.to_radians();
+    let r = c.eye - center;
+    Camera {
+        eye: center + DVec3::new(r.x * a.cos() + r.z * a.sin(), r.y, -r.x * a.sin() + r.z * a.cos()),
+        ..c
+    }
+}
+
+#[test]
+fn author_a_small_graph_save_and_reload_identically() {
+    let dir = exhibit();
+    let (mut p, problems) = Project::open(dir.path()).expect("open");
+    assert!(problems.is_empty() && p.graph.nodes.is_empty());
+    let (gpu, mut renderer) = kiosk::snapshot::offscreen().expect("a GPU adapter (lavapipe) is required");
+    let a = p.capture(orbit(&p, 0.0), Some("front"), Some((&gpu, &mut renderer))).expect("capture");
+    let b = p.capture(orbit(&p, 40.0), None, Some((&gpu, &mut renderer))).expect("capture");
+    assert_eq!(b, "view-1");
+    assert!(dir.path().join("thumbs/front.png").exists());
+    p.set_text(&a, "en", "The bust", "Demosthenes, Athenian orator.").expect("text");
+    p.set_text(&a, "it", "Il busto", "Demostene, oratore ateniese.").expect("text");
+    p.set_importance(&b, 0.6).expect("importance");
+    p.set_dependency(&a, &b, 1.0).expect("dependency");
+    // An overlay of the right aspect, and one of the wrong aspect (a warning).
+    let ok = dir.path().join("drawing.png");
+    image::RgbaImage::from_pixel(320, 180, image::Rgba([200, 30, 30, 128])).save(&ok).expect("png");
+    assert_eq!(p.attach_overlay(&a, "en", &ok).expect("attach"), None);
+    let square = dir.path().join("square.png");
+    image::RgbaImage::from_pixel(100, 100, image::Rgba([0, 0, 0, 255])).save(&square).expect("png");
+    let warn = p.attach_overlay(&b, "en", &square).expect("attach");
+    assert!(warn.is_some_and(|w| w.contains("100×100")));
+    // Paint the middle of the front view: the box lies inside the model's and is smaller.
+    let mask = image::GrayImage::from_fn(160, 90, |x, y| {
+        image::Luma([if (60..100).contains(&x) && (20..50).contains(&y) { 255 } else { 0 }])
+    });
+    let (lo, hi) = p.paint_roi(&a, &mask).expect("roi");
+    let model = p.store.bbox();
+    let (mlo, mhi) = (p.store.to_model(model.min), p.store.to_model(model.max));
+    assert!(lo.cmpge(mlo - 1e-6).all() && hi.cmple(mhi + 1e-6).all());
+    assert!((hi - lo).length() < 0.8 * (mhi - mlo).length());
+    // Validation finds the square overlay, and nothing else.
+    let problems: Vec<String> = p.validate().iter().map(ToString::to_string).collect();
+    assert_eq!(problems.len(), 1, "{problems:?}");
+    assert!(problems[0].contains("node 'view-1': overlay"));
+    assert!(p.dirty());
+    p.save().expect("save");
+    assert!(!p.dirty());
+    let (again, problems) = Project::open(dir.path()).expect("reopen");
+    assert_eq!(problems.len(), 1);
+    assert!(again.graph == p.graph, "the reloaded graph differs");
+    // The saved file is what `kiosk replay` and the kiosk read.
+    assert!(
+        std::fs::read_to_string(dir.path().join("graph.xml"))
+            .expect("xml")
+            .contains("<infograph version=\"1\"")
+    );
+}
+
+#[test]
+fn undo_and_redo_walk_the_edits_and_errors_change_nothing() {
+    let dir = exhibit();
+    let (mut p, _) = Project::open(dir.path()).expect("open");
+    p.capture(orbit(&p, 0.0), Some("a"), None).expect("capture");
+    p.capture(orbit(&p, 30.0), Some("b"), None).expect("capture");
+    p.set_dependency("a", "b", 0.8).expect("dependency");
+    let full = p.graph.clone();
+    assert!(p.set_dependency("a", "zzz", 1.0).is_err());
+    assert!(p.set_dependency("a", "b", 3.0).is_err());
+    assert!(p.capture(orbit(&p, 10.0), Some("a"), None).is_err());
+    assert!(p.graph == full, "a refused action changed the graph");
+    assert!(p.undo());
+    assert!(p.graph.edges.is_empty());
+    assert!(p.undo() && p.undo());
+    assert!(p.graph.nodes.is_empty());
+    assert!(!p.undo());
+    assert!(p.redo() && p.redo() && p.redo());
+    assert!(p.graph == full);
+    p.remove_node("a").expect("remove");
+    assert_eq!(p.graph.nodes.len(), 1);
+    assert!(p.graph.edges.is_empty());
+}
+
+#[test]
+fn an_interrupted_save_keeps_the_previous_file() {
+    let dir = exhibit();
+    let (mut p, _) = Project::open(dir.path()).expect("open");
+    p.capture(orbit(&p, 0.0), Some("a"), None).expect("capture");
+    p.save().expect("save");
+    let before = std::fs::read(dir.path().join("graph.xml")).expect("saved");
+    // A save that dies before the rename leaves only the temporary file behind.
+    std::fs::write(dir.path().join(".graph.xml.saving"), b"<infograph version=\"1\"><node id=")
+        .expect("partial");
+    let (again, problems) = Project::open(dir.path()).expect("reopen");
+    assert!(problems.is_empty());
+    assert_eq!(again.graph.nodes.len(), 1);
+    assert_eq!(std::fs::read(dir.path().join("graph.xml")).expect("still there"), before);
+}
