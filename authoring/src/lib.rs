@@ -173,6 +173,17 @@ impl Project {
         })
     }
 
+    /// Attaches a narration file (relative to the exhibit) in a language.
+    pub fn set_narration(&mut self, id: &str, lang: &str, rel: &str) -> anyhow::Result<()> {
+        let i = self.index(id)?;
+        anyhow::ensure!(self.dir.join(rel).exists(), "narration {rel} not found in the exhibit");
+        let (lang, rel) = (lang.to_string(), rel.to_string());
+        self.edit(|g| {
+            g.nodes[i].narration.0.insert(lang, rel);
+            Ok(())
+        })
+    }
+
     /// Sets a node's importance γ (clamped to [0, 1]).
     pub fn set_importance(&mut self, id: &str, importance: f64) -> anyhow::Result<()> {
         anyhow::ensure!(importance.is_finite(), "importance must be a number");

@@ -171,3 +171,35 @@ fn kiosk_replay_runs_the_story_of_an_exhibit_directory() {
     assert!(text.contains(r#""recommender":"display","node":"near","overlay":"near""#), "overlay not traced");
     assert!(text.lines().last().expect("summary").contains(r#""nodes_displayed":["near"]"#));
 }
+
+#[test]
+fn the_demo_exhibit_story_loads_without_problems() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("content/demosthenes");
+    let (g, problems) = kiosk::exhibit::open_graph(&dir).expect("readable").expect("a graph.xml");
+    assert!(problems.is_empty(), "{problems:?}");
+    assert!(g.nodes.len() >= 8);
+    for w in [1.0, 0.8, 0.2] {
+        assert!(g.edges.iter().any(|e| e.weight == w), "no edge of weight {w}");
+    }
+    for n in &g.nodes {
+        for lang in ["en", "it"] {
+            assert!(n.title.0.contains_key(lang) && n.text.0.contains_key(lang), "{}: no {lang} text", n.id);
+            assert!(
+                n.overlay.0.contains_key(lang) && n.narration.0.contains_key(lang),
+                "{}: no {lang} media",
+                n.id
+            );
+        }
+        assert!(n.roi_bbox.is_some() && n.thumbnail.is_some());
+    }
+    // The story plays: a visitor who waits is shown the introduction first.
+    let store = kiosk::exhibit::open_model(&dir).expect("model");
+    let t = replay::run_story(
+        &store,
+        &Script::new().wait(40.0).cancel(99).session(),
+        &ReplaySettings::default(),
+        Some(&g),
+    );
+    assert_eq!(t.summary.nodes_displayed.first().map(String::as_str), Some("intro"), "{:?}", t.summary);
+    assert_eq!(t.summary.collisions, 0);
+}
