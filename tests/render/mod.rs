@@ -13,10 +13,42 @@ use std::sync::{Mutex, OnceLock};
 /// The perceptual tolerance of golden images: mean SSIM over 8×8 windows of the luminance.
 const MIN_SSIM: f64 = 0.97;
 
+/// Errors the Vulkan validation layers (installed by `.ci/setup`) and wgpu report through `log`.
+static VALIDATION: Mutex<Vec<String>> = Mutex::new(Vec::new());
+
+struct ValidationLog;
+
+impl log::Log for ValidationLog {
+    fn enabled(&self, m: &log::Metadata<'_>) -> bool {
+        m.level() <= log::Level::Error && m.target().starts_with("wgpu")
+    }
+    fn log(&self, r: &log::Record<'_>) {
+        if self.enabled(r.metadata()) {
+            VALIDATION.lock().unwrap_or_else(|e| e.into_inner()).push(format!(
+                "{}: {}",
+                r.target(),
+                r.args()
+            ));
+        }
+    }
+    fn flush(&self) {}
+}
+
+/// Fails on any validation message logged so far.
+fn assert_no_validation_errors() {
+    let v = std::mem::take(&mut *VALIDATION.lock().unwrap_or_else(|e| e.into_inner()));
+    assert!(v.is_empty(), "GPU validation errors:\n{}", v.join("\n"));
+}
+
 /// One GPU for the whole test binary (lavapipe is slow to start; tests take turns).
 fn gpu() -> &'static Mutex<(Gpu, Renderer)> {
     static GPU: OnceLock<Mutex<(Gpu, Renderer)>> = OnceLock::new();
     GPU.get_or_init(|| {
+        static LOGGER: ValidationLog = ValidationLog;
+        // Another test may have set a logger first; validation is then checked by wgpu alone.
+        if log::set_logger(&LOGGER).is_ok() {
+            log::set_max_level(log::LevelFilter::Error);
+        }
         let (gpu, renderer) = kiosk::snapshot::offscreen().unwrap_or_else(|e| {
             panic!("no GPU adapter: {e:#}. Run .ci/setup (installs lavapipe) — GPU tests never skip.")
         });
@@ -32,8 +64,10 @@ fn render(
 ) -> image::RgbaImage {
     let mut g = gpu().lock().unwrap_or_else(|e| e.into_inner());
     let (gpu, renderer) = &mut *g;
-    kiosk::snapshot::snapshot(gpu, renderer, store, camera, size, 1.0, settings)
-        .unwrap_or_else(|e| panic!("{e:#}"))
+    let img = kiosk::snapshot::snapshot(gpu, renderer, store, camera, size, 1.0, settings)
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    assert_no_validation_errors();
+    img
 }
 
 use kiosk::metrics::ssim;
@@ -210,6 +244,20 @@ fn bounded_uploads_substitute_cached_ancestors() {
     }
     assert_eq!(last.substituted, 0);
     assert_eq!(last.nodes, nodes.len());
+    assert_no_validation_errors();
+}
+
+#[test]
+fn validation_messages_are_caught() {
+    // The checker itself must be able to fail: a logged wgpu error is reported. (Holding the GPU
+    // keeps the other tests' checks from taking the deliberate message.)
+    let _held = gpu().lock().unwrap_or_else(|e| e.into_inner());
+    log::error!(target: "wgpu_hal::vulkan", "VALIDATION [test] a deliberate message");
+    let caught = std::panic::catch_unwind(assert_no_validation_errors);
+    assert!(
+        caught.is_err() || log::max_level() < log::LevelFilter::Error,
+        "a logged validation error went unnoticed"
+    );
 }
 
 #[test]
