@@ -90,6 +90,20 @@ fn one_point_and_identical_points_are_a_clear_error() {
 /// Documented result: collinear points build a model; their normals are an arbitrary (but
 /// deterministic) perpendicular of the line, and every query stays finite.
 #[test]
+fn a_failed_build_leaves_no_partial_store_behind() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let out = dir.path().join("m.kstore");
+    let mut b = kiosk_import::Builder::new(small_nodes(), dir.path()).expect("params");
+    for _ in 0..10 {
+        b.push(point(1.0, 1.0, 1.0)).expect("push");
+    }
+    assert!(b.finish(&out, &mut |_| {}).is_err());
+    let left: Vec<_> =
+        std::fs::read_dir(dir.path()).expect("dir").map(|e| e.expect("entry").file_name()).collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+}
+
+#[test]
 fn collinear_points_build_and_answer_finitely() {
     let pts: Vec<InputPoint> =
         (0..5000).map(|i| point(i as f64 * 1e-3, 2.0 * i as f64 * 1e-3, 0.5)).collect();

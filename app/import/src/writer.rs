@@ -18,6 +18,17 @@ pub struct StoreWriter {
     nodes: Vec<NodeRecord>,
     points: u64,
     leaf_points: u64,
+    /// Set once the store is in place; otherwise dropping removes the partial file.
+    finished: bool,
+}
+
+impl Drop for StoreWriter {
+    fn drop(&mut self) {
+        if !self.finished {
+            // A build that failed or was interrupted leaves nothing behind.
+            let _ = std::fs::remove_file(&self.tmp_path);
+        }
+    }
 }
 
 /// Statistics of one node's samples, for its index record.
@@ -42,6 +53,7 @@ impl StoreWriter {
             nodes: Vec::new(),
             points: 0,
             leaf_points: 0,
+            finished: false,
         })
     }
 
@@ -150,10 +162,10 @@ impl StoreWriter {
         .seal();
         self.out.seek(SeekFrom::Start(0))?;
         self.out.write_all(bytemuck::bytes_of(&header))?;
-        let file = self.out.into_inner().map_err(|e| e.into_error())?;
-        file.sync_all()?;
-        drop(file);
+        self.out.flush()?;
+        self.out.get_ref().sync_all()?;
         std::fs::rename(&self.tmp_path, &self.final_path)?;
+        self.finished = true;
         Ok(self.offset)
     }
 }
