@@ -23,14 +23,7 @@ fn main() -> anyhow::Result<()> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let out_dir = root.join("target/bench");
     std::fs::create_dir_all(&out_dir)?;
-    let scan = {
-        let shared = root.join("../shared/data/scans/stanford-dragon/dragon_vrip.ply.gz");
-        if shared.exists() {
-            shared
-        } else {
-            root.join("tests/data/scans/stanford-dragon/dragon_vrip.ply.gz")
-        }
-    };
+    let scan = kiosk::synthetic::dragon_scan();
     let dir = tempfile::tempdir()?;
     let scan_store = dir.path().join("dragon.kstore");
     kiosk::import::import(&scan, &scan_store, &Default::default())?;
@@ -68,18 +61,21 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// The kiosk's start camera and its converged 1 px cut at 1920×1080.
+fn start(store: &MappedStore) -> (kiosk_core::camera::Camera, Cut) {
+    let cam = initial_camera(store, 0.8, DVec3::Y);
+    let mut cut = Cut::root(store);
+    let unbounded = CutParams { max_changes: usize::MAX, ..CutParams::default() };
+    cut.update(store, &cam.view_params(store, (1920, 1080)).expect("view"), &unbounded);
+    (cam, cut)
+}
+
 fn speed_row(name: &str, store: &MappedStore, frames: usize) {
     let g = kiosk_core::gesture::GestureSettings::default();
     // Full joystick offset: (max_offset − dead zone) × speed, per frame at 60 Hz.
     let per_frame = (g.max_offset - 0.0) * g.hover_speed / 60.0;
-    let cam = initial_camera(store, 0.8, DVec3::Y);
-    let mut cut = Cut::root(store);
+    let (cam, mut cut) = start(store);
     let params = CutParams::default();
-    cut.update(
-        store,
-        &cam.view_params(store, (1920, 1080)).expect("view"),
-        &CutParams { max_changes: usize::MAX, ..params },
-    );
     let settings = IsoCamSettings::for_model(f64::from(store.bbox().diagonal()));
     let mut iso = IsoCam::new(SceneRef { store, cut: &cut }, cam, settings);
     // Come closer first: visitors look at details.
@@ -113,14 +109,8 @@ fn speed_row(name: &str, store: &MappedStore, frames: usize) {
 /// A long hover around and over the model, at the given settings: (µs per step, mean isolevel
 /// error, max isolevel error, surface-distance violations, steps).
 fn hover_run(store: &MappedStore, settings: IsoCamSettings, frames: usize) -> (f64, f64, f64, u64, u64) {
-    let cam = initial_camera(store, 0.8, DVec3::Y);
-    let mut cut = Cut::root(store);
+    let (cam, mut cut) = start(store);
     let params = CutParams::default();
-    cut.update(
-        store,
-        &cam.view_params(store, (1920, 1080)).expect("view"),
-        &CutParams { max_changes: usize::MAX, ..params },
-    );
     let mut iso = IsoCam::new(SceneRef { store, cut: &cut }, cam, settings);
     for _ in 0..30 {
         iso.zoom(SceneRef { store, cut: &cut }, 0.05);

@@ -12,7 +12,7 @@ use glam::DVec3;
 use kiosk::MappedStore;
 use kiosk_core::camera::Camera;
 use kiosk_core::{Cut, CutParams};
-use kiosk_render::{Gpu, OFFSCREEN_FORMAT, RenderSettings, wgpu};
+use kiosk_render::RenderSettings;
 use plotters::prelude::*;
 use std::path::Path;
 use std::time::Instant;
@@ -20,21 +20,6 @@ use std::time::Instant;
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
-}
-
-fn target(gpu: &Gpu, (w, h): (u32, u32)) -> (wgpu::Texture, wgpu::TextureView) {
-    let t = gpu.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("bench target"),
-        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: OFFSCREEN_FORMAT,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    });
-    let v = t.create_view(&Default::default());
-    (t, v)
 }
 
 fn orbit(store: &MappedStore, k: usize, dist: f64) -> Camera {
@@ -59,14 +44,7 @@ fn main() -> anyhow::Result<()> {
     let (gpu, mut renderer) = kiosk::snapshot::offscreen()?;
     println!("adapter: {} ({:?}, {:?})", gpu.adapter.name, gpu.adapter.backend, gpu.adapter.device_type);
     let dir = tempfile::tempdir()?;
-    let scan = {
-        let shared = root.join("../shared/data/scans/stanford-dragon/dragon_vrip.ply.gz");
-        if shared.exists() {
-            shared
-        } else {
-            root.join("tests/data/scans/stanford-dragon/dragon_vrip.ply.gz")
-        }
-    };
+    let scan = kiosk::synthetic::dragon_scan();
     let scan_store = dir.path().join("dragon.kstore");
     kiosk::import::import(&scan, &scan_store, &Default::default())?;
     let tradeoff_only = std::env::args().any(|a| a == "--tradeoff-only");
@@ -80,7 +58,7 @@ fn main() -> anyhow::Result<()> {
         );
     }
     let size = (1920u32, 1080u32);
-    let (_t, view) = target(&gpu, size);
+    let (_t, view) = renderer.offscreen_target(&gpu, size);
     let settings = RenderSettings::default();
     println!(
         "\n## Frames at 1920×1080, 1 px cut, camera orbiting (GPU time included: each frame waits for the GPU)"

@@ -632,6 +632,22 @@ impl Renderer {
         Ok(stats)
     }
 
+    /// A colour texture of this renderer's format that can be drawn into and read back.
+    pub fn offscreen_target(&self, gpu: &Gpu, (w, h): (u32, u32)) -> (wgpu::Texture, wgpu::TextureView) {
+        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("offscreen"),
+            size: wgpu::Extent3d { width: w.max(1), height: h.max(1), depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: self.format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&Default::default());
+        (texture, view)
+    }
+
     /// Renders offscreen and returns the image (sRGB RGBA8).
     pub fn render_image<B: AsRef<[u8]>>(
         &mut self,
@@ -643,17 +659,7 @@ impl Renderer {
         settings: &RenderSettings,
     ) -> Result<(image::RgbaImage, FrameStats), RenderError> {
         let (w, h) = (size.0.max(1), size.1.max(1));
-        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("offscreen"),
-            size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: self.format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
-        let view = texture.create_view(&Default::default());
+        let (texture, view) = self.offscreen_target(gpu, (w, h));
         let stats = self.render(gpu, store, nodes, camera, &view, (w, h), settings)?;
         let image = read_back(gpu, &texture, (w, h))?;
         Ok((image, stats))
