@@ -1,20 +1,47 @@
-//! Builds the demo exhibit's story (`content/demosthenes/graph.xml` with thumbnails, overlays,
-//! ROI masks and narration) through the authoring API — the way a curator would, scripted.
+//! Builds the demo exhibits' stories (`content/*/graph.xml` with thumbnails, overlays, ROI masks
+//! and narration) through the authoring API — the way a curator would, scripted. Each exhibit is
+//! data (the tables below); one function builds any of them.
 //!
-//! `cargo run -p kiosk-author --example demo_content` (needs a GPU adapter — lavapipe — for the
-//! thumbnails and `espeak-ng` for the narration; the files it writes are committed data).
+//! `cargo run -p kiosk-author --example demo_content [-- EXHIBIT…]` (all exhibits by default;
+//! needs a GPU adapter — lavapipe — for the thumbnails and `espeak-ng` for the narration; the
+//! files it writes are committed data).
 
 use anyhow::Context;
 use glam::DVec3;
 use kiosk_author::Project;
 use kiosk_core::camera::{Camera, orthonormal_up};
+use kiosk_render::{Gpu, Renderer};
 use std::path::Path;
 
 /// (id, eye, target, fov°, importance, en title, en text, it title, it text)
 type Spec =
     (&'static str, [f64; 3], [f64; 3], f64, f64, &'static str, &'static str, &'static str, &'static str);
 
-const NODES: &[Spec] = &[
+/// (from, to, weight): `to` depends on `from` (ω: 1 mandatory, 0.8 strong, 0.2 weak).
+type Edge = (&'static str, &'static str, f64);
+
+/// One exhibit: its directory under `content/`, its scan (the model file in that directory, copied
+/// there unchanged), its views and its dependencies.
+struct Exhibit {
+    dir: &'static str,
+    scan: &'static str,
+    nodes: &'static [Spec],
+    edges: &'static [Edge],
+}
+
+const EXHIBITS: &[Exhibit] = &[
+    Exhibit {
+        dir: "demosthenes",
+        scan: "demosthenes-low-res.obj",
+        nodes: DEMOSTHENES,
+        edges: DEMOSTHENES_EDGES,
+    },
+    Exhibit { dir: "nefertiti", scan: "nefertiti-lowres.obj", nodes: NEFERTITI, edges: NEFERTITI_EDGES },
+];
+
+/// The Demosthenes bust (`content/demosthenes/`): model units of about 2.7 for its height, +Y up,
+/// the face toward +Z.
+const DEMOSTHENES: &[Spec] = &[
     (
         "intro",
         [0.13, 0.9, 5.0],
@@ -117,7 +144,7 @@ const NODES: &[Spec] = &[
 ];
 
 /// (from, to, weight): mandatory introductions, strong and weak links.
-const EDGES: &[(&str, &str, f64)] = &[
+const DEMOSTHENES_EDGES: &[Edge] = &[
     ("intro", "face", 1.0),
     ("intro", "profile-left", 1.0),
     ("face", "brow", 0.8),
@@ -129,15 +156,158 @@ const EDGES: &[(&str, &str, f64)] = &[
     ("brow", "hair", 0.2),
 ];
 
+/// The Nefertiti bust (`content/nefertiti/`): millimetres, about 494 high, +Y up (flat base at
+/// y ≈ −247, crown top y ≈ 247), the face toward +Z (nose tip z ≈ 181), her left side toward +X.
+const NEFERTITI: &[Spec] = &[
+    (
+        "intro",
+        [260.0, 60.0, 930.0],
+        [0.0, 10.0, 10.0],
+        35.0,
+        1.0,
+        "Nefertiti",
+        "A painted limestone and stucco bust of Queen Nefertiti, wife of the pharaoh Akhenaten, made around 1345 BC and attributed to the sculptor Thutmose. It was found in his workshop at Amarna in 1912 and is now in the Neues Museum, Berlin. This model comes from scan data released by two artists in 2016.",
+        "Nefertiti",
+        "Busto in calcare e stucco dipinti della regina Nefertiti, moglie del faraone Akhenaton, realizzato verso il 1345 a.C. e attribuito allo scultore Thutmose. Fu trovato nella sua bottega ad Amarna nel 1912 ed è oggi al Neues Museum di Berlino. Il modello deriva da dati di scansione diffusi da due artisti nel 2016.",
+    ),
+    (
+        "crown",
+        [650.0, 300.0, 450.0],
+        [0.0, 120.0, 20.0],
+        36.0,
+        0.8,
+        "The blue crown",
+        "Nefertiti wears a tall, flat-topped cap crown, painted blue and ringed by a golden diadem band. The crown is so closely linked to her that it is often called the Nefertiti cap crown.",
+        "La corona blu",
+        "Nefertiti porta un'alta corona a calotta dalla sommità piatta, dipinta di blu e cinta da una fascia dorata. È così legata a lei da essere spesso chiamata la corona di Nefertiti.",
+    ),
+    (
+        "uraeus",
+        [70.0, 230.0, 430.0],
+        [0.0, 160.0, 115.0],
+        25.0,
+        0.5,
+        "The broken cobra",
+        "Above the brow rose the uraeus, the rearing cobra that protected Egyptian kings and queens. Its head has broken off; the loops of its body remain on the front of the crown.",
+        "Il cobra spezzato",
+        "Sopra la fronte si ergeva l'ureo, il cobra che proteggeva re e regine d'Egitto. La testa è spezzata; sul davanti della corona restano le spire del suo corpo.",
+    ),
+    (
+        "face",
+        [0.0, 5.0, 620.0],
+        [0.0, 5.0, 150.0],
+        28.0,
+        0.9,
+        "A calm face",
+        "Fine arched brows, high cheekbones and full lips make this one of the most famous faces of antiquity. Computed tomography has shown that under the stucco the limestone core has a slightly different face, with creases at the corners of the mouth.",
+        "Un volto sereno",
+        "Sopracciglia sottili e arcuate, zigomi alti e labbra piene ne fanno uno dei volti più celebri dell'antichità. La tomografia ha mostrato che sotto lo stucco il nucleo in calcare ha un volto un po' diverso, con pieghe agli angoli della bocca.",
+    ),
+    (
+        "eyes",
+        [0.0, 30.0, 400.0],
+        [0.0, 28.0, 150.0],
+        20.0,
+        0.7,
+        "The missing eye",
+        "Her right eye is inlaid with quartz, its pupil painted black. The left eye, on your right, has no inlay: only the bare limestone of the socket. The excavators searched the workshop rubble for it in 1912 without success, and it may never have been made.",
+        "L'occhio mancante",
+        "L'occhio destro è intarsiato di quarzo, con la pupilla dipinta di nero. L'occhio sinistro, alla vostra destra, non ha l'intarsio: resta solo il calcare nudo dell'orbita. Nel 1912 gli scavatori lo cercarono invano tra le macerie della bottega, e forse non fu mai realizzato.",
+    ),
+    (
+        "neck",
+        [220.0, -110.0, 640.0],
+        [0.0, -130.0, 60.0],
+        32.0,
+        0.5,
+        "Neck and collar",
+        "A long, slender neck leans forward, balancing the tall crown. Across the shoulders lies a broad collar, painted with a floral pattern.",
+        "Collo e collare",
+        "Un collo lungo e sottile si protende in avanti, bilanciando l'alta corona. Sulle spalle poggia un ampio collare, dipinto con un motivo floreale.",
+    ),
+    (
+        "profile-left",
+        [950.0, 0.0, 30.0],
+        [0.0, 0.0, 0.0],
+        33.0,
+        0.7,
+        "Left profile",
+        "From her left side the bust shows its famous outline: the crown sweeps back while the neck and face lean forward. This is also the side of the eye without inlay.",
+        "Profilo sinistro",
+        "Dal suo lato sinistro il busto mostra il suo celebre profilo: la corona si slancia all'indietro mentre collo e volto si protendono in avanti. È anche il lato dell'occhio senza intarsio.",
+    ),
+    (
+        "profile-right",
+        [-950.0, 0.0, 30.0],
+        [0.0, 0.0, 0.0],
+        33.0,
+        0.4,
+        "Right profile",
+        "The right side mirrors the left almost exactly. Look at the ears: their edges are chipped, some of the little damage the bust has suffered.",
+        "Profilo destro",
+        "Il lato destro rispecchia quasi esattamente il sinistro. Guardate le orecchie: i bordi sono scheggiati, tra i pochi danni subiti dal busto.",
+    ),
+    (
+        "back",
+        [-150.0, 330.0, -1000.0],
+        [0.0, 20.0, -30.0],
+        33.0,
+        0.3,
+        "Behind the crown",
+        "From behind, the flat top of the crown tilts toward you and overhangs the nape. The bust stands on a flat base; it probably served in the workshop as a model for other portraits of the queen.",
+        "Dietro la corona",
+        "Da dietro, la sommità piatta della corona si inclina verso di voi e sporge sopra la nuca. Il busto poggia su una base piatta; nella bottega serviva probabilmente da modello per altri ritratti della regina.",
+    ),
+];
+
+/// (from, to, weight): the introduction opens the face, the crown and the profile; details
+/// follow strongly; weak links suggest a tour around the bust.
+const NEFERTITI_EDGES: &[Edge] = &[
+    ("intro", "face", 1.0),
+    ("intro", "crown", 1.0),
+    ("intro", "profile-left", 1.0),
+    ("face", "eyes", 0.8),
+    ("face", "neck", 0.8),
+    ("crown", "uraeus", 0.8),
+    ("profile-left", "profile-right", 0.8),
+    ("profile-right", "back", 0.8),
+    ("crown", "back", 0.2),
+    ("neck", "profile-left", 0.2),
+];
+
 fn main() -> anyhow::Result<()> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../content/demosthenes");
+    let wanted: Vec<String> = std::env::args().skip(1).collect();
+    for w in &wanted {
+        anyhow::ensure!(
+            EXHIBITS.iter().any(|e| e.dir == w),
+            "unknown exhibit '{w}' (known: {})",
+            EXHIBITS.iter().map(|e| e.dir).collect::<Vec<_>>().join(", ")
+        );
+    }
+    let (gpu, mut renderer) = kiosk::snapshot::offscreen()?;
+    for ex in EXHIBITS.iter().filter(|e| wanted.is_empty() || wanted.iter().any(|w| w == e.dir)) {
+        build(ex, &gpu, &mut renderer)?;
+    }
+    Ok(())
+}
+
+/// Builds one exhibit's story from scratch: every node of its graph is replaced by the table's.
+fn build(ex: &Exhibit, gpu: &Gpu, renderer: &mut Renderer) -> anyhow::Result<()> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../content").join(ex.dir);
+    let model = kiosk::exhibit::model_file(&dir)?;
+    anyhow::ensure!(
+        model.file_name().is_some_and(|n| n == ex.scan),
+        "{}: the exhibit's model is {}, expected {} (copy the scan there unchanged)",
+        dir.display(),
+        model.display(),
+        ex.scan
+    );
     let (mut p, _) = Project::open(&dir)?;
     for id in p.graph.nodes.iter().map(|n| n.id.clone()).collect::<Vec<_>>() {
         p.remove_node(&id)?;
     }
-    let (gpu, mut renderer) = kiosk::snapshot::offscreen()?;
     let tmp = tempfile::tempdir()?;
-    for &(id, eye, target, fov, importance, t_en, x_en, t_it, x_it) in NODES {
+    for &(id, eye, target, fov, importance, t_en, x_en, t_it, x_it) in ex.nodes {
         let mut cam = Camera {
             eye: DVec3::from(eye),
             target: DVec3::from(target),
@@ -145,7 +315,7 @@ fn main() -> anyhow::Result<()> {
             fov_y: fov.to_radians(),
         };
         cam.up = orthonormal_up(cam.forward(), DVec3::Y, DVec3::Z);
-        p.capture(cam, Some(id), Some((&gpu, &mut renderer)))?;
+        p.capture(cam, Some(id), Some((gpu, &mut *renderer)))?;
         p.set_text(id, "en", t_en, x_en)?;
         p.set_text(id, "it", t_it, x_it)?;
         p.set_importance(id, importance)?;
@@ -177,11 +347,11 @@ fn main() -> anyhow::Result<()> {
         narrate(&mut p, id, "en", x_en)?;
         narrate(&mut p, id, "it", x_it)?;
     }
-    for &(from, to, w) in EDGES {
+    for &(from, to, w) in ex.edges {
         p.set_dependency(from, to, w)?;
     }
     let problems = p.validate();
-    anyhow::ensure!(problems.is_empty(), "{problems:?}");
+    anyhow::ensure!(problems.is_empty(), "{}: {problems:?}", ex.dir);
     p.save()?;
     println!(
         "{}: {} nodes, {} edges",
