@@ -174,12 +174,24 @@ fn kiosk_replay_runs_the_story_of_an_exhibit_directory() {
 
 #[test]
 fn the_demo_exhibit_story_loads_without_problems() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("content/demosthenes");
+    demo_exhibit_loads_and_plays("demosthenes");
+}
+
+#[test]
+fn the_nefertiti_exhibit_story_loads_without_problems() {
+    demo_exhibit_loads_and_plays("nefertiti");
+}
+
+/// A demo exhibit of `content/`: its graph loads without problems, uses mandatory, strong and
+/// weak dependencies, every node has its texts, media, thumbnail and ROI in both languages (the
+/// files exist), and a visitor who waits is shown the introduction first.
+fn demo_exhibit_loads_and_plays(name: &str) {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("content").join(name);
     let (g, problems) = kiosk::exhibit::open_graph(&dir).expect("readable").expect("a graph.xml");
-    assert!(problems.is_empty(), "{problems:?}");
-    assert!(g.nodes.len() >= 8);
+    assert!(problems.is_empty(), "{name}: {problems:?}");
+    assert!(g.nodes.len() >= 8, "{name}: {} nodes", g.nodes.len());
     for w in [1.0, 0.8, 0.2] {
-        assert!(g.edges.iter().any(|e| e.weight == w), "no edge of weight {w}");
+        assert!(g.edges.iter().any(|e| e.weight == w), "{name}: no edge of weight {w}");
     }
     for n in &g.nodes {
         for lang in ["en", "it"] {
@@ -190,8 +202,13 @@ fn the_demo_exhibit_story_loads_without_problems() {
                 n.id
             );
         }
-        assert!(n.roi_bbox.is_some() && n.thumbnail.is_some());
+        assert!(n.roi_bbox.is_some() && n.thumbnail.is_some() && n.roi_mask.is_some(), "{}", n.id);
+        let files = n.overlay.0.values().chain(n.narration.0.values()).chain(&n.thumbnail).chain(&n.roi_mask);
+        for f in files {
+            assert!(dir.join(f).is_file(), "{name}/{}: {f} missing", n.id);
+        }
     }
+    assert!(dir.join("CREDITS.md").is_file(), "{name}: no CREDITS.md");
     // The story plays: a visitor who waits is shown the introduction first.
     let store = kiosk::exhibit::open_model(&dir).expect("model");
     let t = replay::run_story(
@@ -200,6 +217,11 @@ fn the_demo_exhibit_story_loads_without_problems() {
         &ReplaySettings::default(),
         Some(&g),
     );
-    assert_eq!(t.summary.nodes_displayed.first().map(String::as_str), Some("intro"), "{:?}", t.summary);
-    assert_eq!(t.summary.collisions, 0);
+    assert_eq!(
+        t.summary.nodes_displayed.first().map(String::as_str),
+        Some("intro"),
+        "{name}: {:?}",
+        t.summary
+    );
+    assert_eq!(t.summary.collisions, 0, "{name}");
 }
