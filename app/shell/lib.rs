@@ -6,6 +6,7 @@ pub mod import;
 pub mod metrics;
 pub mod snapshot;
 pub mod synthetic;
+pub mod windows;
 
 use anyhow::Context;
 use kiosk_core::Store;

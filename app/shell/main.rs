@@ -7,9 +7,85 @@ use std::path::PathBuf;
 
 #[derive(Parser)]
 #[command(name = "kiosk", version, about = "IsoKiosk: explore huge 3D scans in a museum")]
+#[command(args_conflicts_with_subcommands = true)]
 struct Cli {
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
+    #[command(flatten)]
+    run: RunArgs,
+}
+
+/// Without a command, `kiosk` opens the projection and controller windows.
+#[derive(clap::Args)]
+struct RunArgs {
+    /// Configuration file (TOML); default: kiosk.toml if present, else built-in defaults.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Content directory (overrides the configuration's).
+    #[arg(long)]
+    content: Option<PathBuf>,
+    /// Ordinary windows side by side instead of fullscreen on the configured monitors.
+    #[arg(long)]
+    windowed: bool,
+    /// Record the visitors' touches to this session file (JSON Lines).
+    #[arg(long, value_name = "FILE.jsonl")]
+    record: Option<PathBuf>,
+    /// Play this session through the windows at its own timing, then exit.
+    #[arg(long, value_name = "FILE.jsonl")]
+    session: Option<PathBuf>,
+    /// Session times (seconds) at which to save both windows as PNG.
+    #[arg(long, value_delimiter = ',', value_name = "T1,T2,…")]
+    screenshot_at: Vec<f64>,
+    /// Where the screenshots go.
+    #[arg(long, default_value = ".")]
+    screenshot_dir: PathBuf,
+    /// Clock speed (2 = twice as fast; for tests and soak runs).
+    #[arg(long, default_value_t = 1.0)]
+    speed: f64,
+    /// With --session: replay it over and over until this much kiosk time has passed (soak).
+    #[arg(long, value_name = "SECS", requires = "session")]
+    run_for: Option<f64>,
+    /// No audio device, even if there is one.
+    #[arg(long)]
+    silent: bool,
+    /// Write the kiosk's trace (one JSON line per 60 Hz frame).
+    #[arg(long)]
+    trace: Option<PathBuf>,
+}
+
+fn run_kiosk(args: RunArgs) -> anyhow::Result<()> {
+    use kiosk::windows::config::Config;
+    let mut config = match &args.config {
+        Some(p) => Config::load(p)?,
+        None if std::path::Path::new("kiosk.toml").exists() => {
+            Config::load(std::path::Path::new("kiosk.toml"))?
+        }
+        None => Config::default(),
+    };
+    if let Some(c) = args.content {
+        config.content = c;
+    }
+    anyhow::ensure!(args.speed.is_finite() && args.speed > 0.0, "--speed must be positive");
+    let session = match &args.session {
+        Some(p) => {
+            let text =
+                std::fs::read_to_string(p).with_context(|| format!("cannot read session {}", p.display()))?;
+            Some(kiosk_core::session::Session::parse(&text).with_context(|| format!("{}", p.display()))?)
+        }
+        None => None,
+    };
+    kiosk::windows::run(kiosk::windows::RunOptions {
+        config,
+        windowed: args.windowed,
+        record: args.record,
+        session,
+        screenshot_at: args.screenshot_at,
+        screenshot_dir: args.screenshot_dir,
+        speed: args.speed,
+        run_for: args.run_for,
+        silent: args.silent,
+        trace: args.trace,
+    })
 }
 
 #[derive(Subcommand)]
@@ -85,7 +161,14 @@ enum Command {
 
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
-    match cli.command {
+    tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
+            tracing_subscriber::EnvFilter::new("info,wgpu_core=warn,wgpu_hal=warn,naga=warn")
+        }))
+        .with_writer(std::io::stderr)
+        .init();
+    let Some(command) = cli.command else { return run_kiosk(cli.run) };
+    match command {
         Command::Import { scan, output, node_points, drop_invalid, quiet } => {
             let mut opts = ImportOptions { progress: !quiet, ..Default::default() };
             opts.build.node_points = node_points;

@@ -174,6 +174,11 @@ impl Gestures {
         !self.fingers.is_empty()
     }
 
+    /// Ids of the fingers down.
+    pub fn finger_ids(&self) -> Vec<i64> {
+        self.fingers.keys().copied().collect()
+    }
+
     /// Whether the radial menu is open.
     pub fn menu_open(&self) -> bool {
         matches!(self.mode, Mode::Menu { .. })

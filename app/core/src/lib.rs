@@ -6,9 +6,11 @@
 //! crate disallows the clock and the filesystem so the compiler guards that promise.
 
 pub mod camera;
+pub mod explore;
 pub mod geom;
 pub mod gesture;
 pub mod graph;
+pub mod kiosk;
 pub mod recommend;
 pub mod replay;
 pub mod scene;

@@ -3,18 +3,15 @@
 //! settings and seed → byte-identical trace.
 
 use crate::camera::{
-    Acevit, AcevitSettings, Camera, Controller, GoTo, IsoCam, IsoCamSettings, SceneRef, Trackball,
+    Acevit, AcevitSettings, Camera, Controller, IsoCam, IsoCamSettings, SceneRef, Trackball,
 };
-use crate::gesture::{GestureSettings, Gestures, MenuEvent};
+use crate::explore::Explorer;
+use crate::gesture::GestureSettings;
 use crate::graph::InfoGraph;
-use crate::recommend::{
-    Effect, RadialSettings, RecEvent, RecSettings, RecState, Recommender, ViewContext, ViewIndex,
-    radial_candidates, slot_for_angle,
-};
-use crate::scene::{Cut, CutParams, Level, Store};
+use crate::recommend::{RadialSettings, RecSettings};
+use crate::scene::{CutParams, Store};
 use crate::session::Session;
 use glam::DVec3;
-use rand::SeedableRng;
 use serde::Serialize;
 
 /// Which controller a replay uses.
@@ -237,186 +234,18 @@ pub fn run_story<B: AsRef<[u8]>>(
     settings: &ReplaySettings,
     graph: Option<&InfoGraph>,
 ) -> Trace {
-    let mut rng = rand_pcg::Pcg64::seed_from_u64(settings.seed);
-    let diag = f64::from(store.bbox().diagonal());
-    let min_distance = settings.min_distance_fraction * diag;
-    let aspect = f64::from(settings.size_px.0) / f64::from(settings.size_px.1.max(1));
-    let cam0 = initial_camera(store, settings.fov_y, settings.up);
-    let mut cut = Cut::root(store);
-    if let Some(v) = cam0.view_params(store, settings.size_px) {
-        cut.update(store, &v, &CutParams { max_changes: usize::MAX, ..settings.cut });
-    }
-    let mut controller =
-        make_controller(SceneRef { store, cut: &cut }, cam0, settings.controller, min_distance, settings.up);
-    let mut gestures = Gestures::new(settings.gestures);
-    let mut rec = graph.map(|g| Recommender::new(g, settings.recommend, 0.0));
-    let view_index = graph.map(ViewIndex::new);
-    let mut menu: Option<Vec<usize>> = None;
-    let mut goto: Option<GoTo> = None;
+    let mut explorer = Explorer::new(store, graph, settings, 0.0);
     let dt = 1.0 / settings.fps;
     let frames = ((session.duration() + settings.tail_secs) * settings.fps).ceil() as u64 + 1;
     let mut next = 0usize;
-    let mut summary = Summary { min_surface_distance: f64::INFINITY, ..Summary::default() };
     let mut out = Vec::with_capacity(frames as usize);
-    let tolerance = match &controller {
-        Controller::IsoCam(c) => c.settings.reproject_tolerance,
-        _ => 0.01,
-    };
     for k in 0..frames {
         let t = k as f64 * dt;
         while next < session.events.len() && session.events[next].t <= t + 1e-9 {
-            gestures.event(&session.events[next]);
+            explorer.touch(&session.events[next]);
             next += 1;
         }
-        let mut intent = gestures.frame(t, dt);
-        let samples: Vec<DVec3> = match graph {
-            Some(_) => store
-                .sample_cut(&cut, settings.similarity_samples, &mut rng)
-                .into_iter()
-                .map(|p| store.to_model(p))
-                .collect(),
-            None => Vec::new(),
-        };
-        let ctx = ViewContext {
-            camera: controller.camera(),
-            aspect,
-            samples: &samples,
-            diagonal: diag,
-            moving: !intent.is_idle(),
-        };
-        let mut rec_event = RecEvent::Tick;
-        for m in gestures.take_menu_events() {
-            match m {
-                MenuEvent::Open { .. } => {
-                    if matches!(rec.as_ref().map(|r| r.state), Some(RecState::Propose { .. })) {
-                        // A long press accepts the proposal instead of opening the menu.
-                        gestures.menu_cancel();
-                        gestures.take_menu_events();
-                        rec_event = RecEvent::LongPress;
-                    } else {
-                        summary.menu_requests += 1;
-                        menu = Some(match (graph, view_index.as_ref()) {
-                            (Some(g), Some(vi)) => radial_candidates(
-                                g,
-                                vi,
-                                &ctx,
-                                &settings.radial,
-                                &mut |from: DVec3, to: DVec3| {
-                                    let d = to - from;
-                                    let len = d.length();
-                                    len <= 0.0 || store.ray_cast(Level::Cut(&cut), from, d, len).is_none()
-                                },
-                            ),
-                            _ => Vec::new(),
-                        });
-                    }
-                }
-                MenuEvent::Select { angle } => {
-                    summary.menu_selections += 1;
-                    if let Some(c) = menu.take()
-                        && let Some(slot) = slot_for_angle(angle, c.len())
-                    {
-                        rec_event = RecEvent::MenuSelect(c[slot]);
-                    }
-                }
-                MenuEvent::Cancel => menu = None,
-                MenuEvent::Point { .. } => {}
-            }
-        }
-        let menu_open = gestures.menu_open();
-        if let (Some(r), Some(g)) = (rec.as_ref(), graph) {
-            let h = r.guide(g, &ctx, (intent.hover.0 + intent.pan.0, intent.hover.1 + intent.pan.1));
-            intent.hover = h;
-            intent.pan = (0.0, 0.0);
-        }
-        let scene = SceneRef { store, cut: &cut };
-        match goto {
-            Some(a) => {
-                if a.done(t) {
-                    controller.set_camera(scene, a.to);
-                    goto = None;
-                }
-            }
-            None => {
-                if !menu_open {
-                    controller.apply(scene, &intent, &mut rng);
-                }
-            }
-        }
-        if let (Some(r), Some(g)) = (rec.as_mut(), graph) {
-            let before = r.state;
-            let ctx = ViewContext { camera: controller.camera(), ..ctx };
-            for fx in r.step(g, &ctx, rec_event, t, &mut rng) {
-                match fx {
-                    Effect::StartGoTo { node, duration } => {
-                        goto = Some(GoTo {
-                            from: controller.camera(),
-                            to: g.nodes[node].view,
-                            start: t,
-                            duration,
-                        });
-                    }
-                    Effect::ShowOverlay { node } => summary.nodes_displayed.push(g.nodes[node].id.clone()),
-                    _ => {}
-                }
-            }
-            match (before, r.state) {
-                (RecState::Propose { .. }, RecState::GoTo { .. }) => summary.proposals_accepted += 1,
-                (RecState::Propose { .. }, RecState::Discover { .. }) => summary.proposals_ignored += 1,
-                _ => {}
-            }
-        }
-        let cam = match goto {
-            Some(a) => a.camera_at(t, SceneRef { store, cut: &cut }, min_distance),
-            None => controller.camera(),
-        };
-        if let Some(v) = cam.view_params(store, settings.size_px) {
-            cut.update(store, &v, &settings.cut);
-        }
-        let surface = store.nearest_sample(cam.eye).map_or(f64::NAN, |(d, _)| d);
-        if surface < min_distance * (1.0 - tolerance) {
-            summary.collisions += 1;
-        }
-        summary.min_surface_distance = summary.min_surface_distance.min(surface);
-        let state = if menu_open {
-            "menu"
-        } else if goto.is_some() {
-            "go-to"
-        } else if intent.zoom != 0.0 {
-            "zoom"
-        } else if intent.hover != (0.0, 0.0) || intent.pan != (0.0, 0.0) {
-            "hover"
-        } else if intent.twist != 0.0 {
-            "twist"
-        } else {
-            "idle"
-        };
-        let id = |i: usize| graph.map(|g| g.nodes[i].id.clone());
-        out.push(Frame {
-            t,
-            eye: cam.eye.to_array(),
-            target: cam.target.to_array(),
-            up: cam.up.to_array(),
-            surface_distance: surface,
-            min_distance,
-            controller: state,
-            isolevel: match &controller {
-                Controller::IsoCam(c) => Some(c.isolevel()),
-                _ => None,
-            },
-            recommender: rec.as_ref().map(|r| r.state.name().to_string()),
-            node: rec.as_ref().and_then(|r| r.state.node()).and_then(id),
-            overlay: match rec.as_ref().map(|r| r.state) {
-                Some(RecState::Display { node, .. }) => id(node),
-                _ => None,
-            },
-            menu: menu_open.then(|| MenuTrace {
-                open: true,
-                candidates: menu.iter().flatten().filter_map(|&i| id(i)).collect(),
-            }),
-            cut_nodes: cut.nodes().len(),
-        });
+        out.push(explorer.step(store, graph, t).0);
     }
-    summary.frames = frames;
-    Trace { controller: controller.name(), frames: out, summary }
+    Trace { controller: explorer.controller_name(), frames: out, summary: explorer.summary }
 }

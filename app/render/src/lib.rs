@@ -22,6 +22,9 @@ use wgpu::util::DeviceExt;
 
 pub use wgpu;
 
+mod blit;
+pub use blit::{BLIT_WGSL, Blit};
+
 /// The splat shader (validated by a test with naga).
 pub const SPLAT_WGSL: &str = include_str!("../../../shaders/splat.wgsl");
 /// The eye-dome lighting shader.
@@ -231,7 +234,9 @@ pub struct Renderer {
     /// Which store the cache holds nodes of (index checksum, length, origin).
     cache_store: Option<(u32, u64, [u64; 3])>,
     frame: u64,
-    targets: Option<Targets>,
+    /// Depth and EDL targets by size, most recently used first (a window and an inset alternate
+    /// without reallocating).
+    targets: Vec<Targets>,
 }
 
 impl Renderer {
@@ -392,7 +397,7 @@ impl Renderer {
             cache_bytes: 0,
             cache_store: None,
             frame: 0,
-            targets: None,
+            targets: Vec::new(),
         }
     }
 
@@ -402,7 +407,10 @@ impl Renderer {
     }
 
     fn targets(&mut self, gpu: &Gpu, size: (u32, u32)) -> &Targets {
-        if self.targets.as_ref().is_none_or(|t| t.size != size) {
+        if let Some(i) = self.targets.iter().position(|t| t.size == size) {
+            let t = self.targets.remove(i);
+            self.targets.insert(0, t);
+        } else {
             let extent =
                 wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 };
             let tex = |label, format, usage| {
@@ -431,9 +439,10 @@ impl Renderer {
                     wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&depth) },
                 ],
             });
-            self.targets = Some(Targets { size, depth, color, edl_group });
+            self.targets.insert(0, Targets { size, depth, color, edl_group });
+            self.targets.truncate(MAX_TARGET_SIZES);
         }
-        self.targets.as_ref().unwrap_or_else(|| unreachable!("just created"))
+        &self.targets[0]
     }
 
     /// Makes the visible nodes resident (within the upload budget) and returns what to draw.
@@ -565,7 +574,7 @@ impl Renderer {
             }),
         );
         self.targets(gpu, size);
-        let t = self.targets.as_ref().ok_or_else(|| RenderError::Gpu("no render targets".into()))?;
+        let t = self.targets.first().ok_or_else(|| RenderError::Gpu("no render targets".into()))?;
         let mut enc =
             gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
         let [r, g, b, a] = settings.background;
@@ -666,7 +675,10 @@ impl Renderer {
     }
 }
 
-/// Copies a `Rgba8UnormSrgb` (or `Rgba8Unorm`) texture into an image.
+/// Sizes of depth/EDL targets a renderer keeps at once.
+const MAX_TARGET_SIZES: usize = 3;
+
+/// Copies an RGBA8 or BGRA8 texture (sRGB or not) into an RGBA image.
 pub fn read_back(
     gpu: &Gpu,
     texture: &wgpu::Texture,
@@ -714,6 +726,11 @@ pub fn read_back(
     }
     buffer.unmap();
     gpu.check()?;
+    if matches!(texture.format(), wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb) {
+        for px in rgba.chunks_exact_mut(4) {
+            px.swap(0, 2);
+        }
+    }
     image::RgbaImage::from_raw(w, h, rgba).ok_or_else(|| RenderError::Readback("size mismatch".into()))
 }
 

@@ -1,0 +1,330 @@
+//! One visitor exploring one model: gestures → camera controller → recommender → radial menu,
+//! advanced one frame at a time at injected times. `replay` drives it from a session file; the
+//! kiosk drives it from a window's touch events. Both take exactly this path.
+
+use crate::camera::{Camera, Controller, GoTo, SceneRef};
+use crate::gesture::{Gestures, MenuEvent, TouchEvent};
+use crate::graph::InfoGraph;
+use crate::recommend::{
+    Effect, RecEvent, RecState, Recommender, ViewContext, ViewIndex, radial_candidates, slot_for_angle,
+};
+use crate::replay::{Frame, MenuTrace, ReplaySettings, Summary, initial_camera, make_controller};
+use crate::scene::{Cut, CutParams, Level, Store};
+use glam::DVec3;
+use rand::SeedableRng;
+
+/// The radial menu while it is open.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RadialMenu {
+    /// Where the long press happened (controller surface, normalised).
+    pub origin: (f64, f64),
+    /// Candidate nodes, clockwise from the top.
+    pub candidates: Vec<usize>,
+    /// Direction the finger points (radians, 0 = up, clockwise), once it moved.
+    pub pointing: Option<f64>,
+}
+
+/// The state of one exploration.
+#[derive(Clone, Debug)]
+pub struct Explorer {
+    settings: ReplaySettings,
+    rng: rand_pcg::Pcg64,
+    cut: Cut,
+    controller: Controller,
+    gestures: Gestures,
+    rec: Option<Recommender>,
+    view_index: Option<ViewIndex>,
+    menu: Option<RadialMenu>,
+    goto: Option<GoTo>,
+    camera: Camera,
+    diag: f64,
+    min_distance: f64,
+    aspect: f64,
+    tolerance: f64,
+    /// Counts over the exploration.
+    pub summary: Summary,
+    /// When set, proposals are accepted without a visitor (the kiosk's attract loop).
+    pub autopilot: bool,
+}
+
+impl Explorer {
+    /// Starts at the model's framing view; `now` is the clock of the recommender.
+    pub fn new<B: AsRef<[u8]>>(
+        store: &Store<B>,
+        graph: Option<&InfoGraph>,
+        settings: &ReplaySettings,
+        now: f64,
+    ) -> Self {
+        let diag = f64::from(store.bbox().diagonal());
+        let min_distance = settings.min_distance_fraction * diag;
+        let aspect = f64::from(settings.size_px.0) / f64::from(settings.size_px.1.max(1));
+        let cam0 = initial_camera(store, settings.fov_y, settings.up);
+        let mut cut = Cut::root(store);
+        if let Some(v) = cam0.view_params(store, settings.size_px) {
+            cut.update(store, &v, &CutParams { max_changes: usize::MAX, ..settings.cut });
+        }
+        let controller = make_controller(
+            SceneRef { store, cut: &cut },
+            cam0,
+            settings.controller,
+            min_distance,
+            settings.up,
+        );
+        let tolerance = match &controller {
+            Controller::IsoCam(c) => c.settings.reproject_tolerance,
+            _ => 0.01,
+        };
+        Self {
+            settings: *settings,
+            rng: rand_pcg::Pcg64::seed_from_u64(settings.seed),
+            cut,
+            controller,
+            gestures: Gestures::new(settings.gestures),
+            rec: graph.map(|g| Recommender::new(g, settings.recommend, now)),
+            view_index: graph.map(ViewIndex::new),
+            menu: None,
+            goto: None,
+            camera: cam0,
+            diag,
+            min_distance,
+            aspect,
+            tolerance,
+            summary: Summary { min_surface_distance: f64::INFINITY, ..Summary::default() },
+            autopilot: false,
+        }
+    }
+
+    /// Feeds one touch event (to be followed by `step` at a time ≥ the event's).
+    pub fn touch(&mut self, e: &TouchEvent) {
+        self.gestures.event(e);
+    }
+
+    /// Lifts every finger (a touch that belongs to someone else now, or a mode change).
+    pub fn release_all(&mut self, t: f64) {
+        for id in self.gestures.finger_ids() {
+            self.gestures.event(&TouchEvent { t, ev: crate::gesture::TouchKind::Cancel, id, x: 0.0, y: 0.0 });
+        }
+    }
+
+    /// The mouse's right button: the radial menu at this point of the controller surface.
+    pub fn menu_button(&mut self, x: f64, y: f64) {
+        self.gestures.menu_button(x, y);
+    }
+
+    /// The camera shown (the go-to animation's while one runs).
+    pub fn camera(&self) -> Camera {
+        self.camera
+    }
+
+    /// The current cut.
+    pub fn cut(&self) -> &Cut {
+        &self.cut
+    }
+
+    /// The recommender, when the model has a graph.
+    pub fn recommender(&self) -> Option<&Recommender> {
+        self.rec.as_ref()
+    }
+
+    /// The radial menu, when open.
+    pub fn menu(&self) -> Option<&RadialMenu> {
+        self.menu.as_ref().filter(|_| self.gestures.menu_open())
+    }
+
+    /// The minimum distance to the surface in force.
+    pub fn min_distance(&self) -> f64 {
+        self.min_distance
+    }
+
+    /// Whether a go-to animation runs.
+    pub fn animating(&self) -> bool {
+        self.goto.is_some()
+    }
+
+    /// Whether any finger is on the surface.
+    pub fn touched(&self) -> bool {
+        self.gestures.active()
+    }
+
+    /// Advances one frame to time `t` (seconds, after the previous step) and returns the frame's
+    /// trace line and the recommender's effects.
+    pub fn step<B: AsRef<[u8]>>(
+        &mut self,
+        store: &Store<B>,
+        graph: Option<&InfoGraph>,
+        t: f64,
+    ) -> (Frame, Vec<Effect>) {
+        let settings = &self.settings;
+        let dt = 1.0 / settings.fps;
+        let mut intent = self.gestures.frame(t, dt);
+        let samples: Vec<DVec3> = match graph {
+            Some(_) => store
+                .sample_cut(&self.cut, settings.similarity_samples, &mut self.rng)
+                .into_iter()
+                .map(|p| store.to_model(p))
+                .collect(),
+            None => Vec::new(),
+        };
+        let ctx = ViewContext {
+            camera: self.controller.camera(),
+            aspect: self.aspect,
+            samples: &samples,
+            diagonal: self.diag,
+            moving: !intent.is_idle(),
+        };
+        let mut rec_event = RecEvent::Tick;
+        if self.autopilot && matches!(self.rec.as_ref().map(|r| r.state), Some(RecState::Propose { .. })) {
+            rec_event = RecEvent::LongPress;
+        }
+        for m in self.gestures.take_menu_events() {
+            match m {
+                MenuEvent::Open { at } => {
+                    if matches!(self.rec.as_ref().map(|r| r.state), Some(RecState::Propose { .. })) {
+                        // A long press accepts the proposal instead of opening the menu.
+                        self.gestures.menu_cancel();
+                        self.gestures.take_menu_events();
+                        rec_event = RecEvent::LongPress;
+                    } else {
+                        self.summary.menu_requests += 1;
+                        let cut = &self.cut;
+                        let candidates = match (graph, self.view_index.as_ref()) {
+                            (Some(g), Some(vi)) => radial_candidates(
+                                g,
+                                vi,
+                                &ctx,
+                                &settings.radial,
+                                &mut |from: DVec3, to: DVec3| {
+                                    let d = to - from;
+                                    let len = d.length();
+                                    len <= 0.0 || store.ray_cast(Level::Cut(cut), from, d, len).is_none()
+                                },
+                            ),
+                            _ => Vec::new(),
+                        };
+                        self.menu = Some(RadialMenu { origin: at, candidates, pointing: None });
+                    }
+                }
+                MenuEvent::Point { angle } => {
+                    if let Some(m) = self.menu.as_mut() {
+                        m.pointing = Some(angle);
+                    }
+                }
+                MenuEvent::Select { angle } => {
+                    self.summary.menu_selections += 1;
+                    if let Some(m) = self.menu.take()
+                        && let Some(slot) = slot_for_angle(angle, m.candidates.len())
+                    {
+                        rec_event = RecEvent::MenuSelect(m.candidates[slot]);
+                    }
+                }
+                MenuEvent::Cancel => self.menu = None,
+            }
+        }
+        let menu_open = self.gestures.menu_open();
+        if let (Some(r), Some(g)) = (self.rec.as_ref(), graph) {
+            let h = r.guide(g, &ctx, (intent.hover.0 + intent.pan.0, intent.hover.1 + intent.pan.1));
+            intent.hover = h;
+            intent.pan = (0.0, 0.0);
+        }
+        let scene = SceneRef { store, cut: &self.cut };
+        match self.goto {
+            Some(a) => {
+                if a.done(t) {
+                    self.controller.set_camera(scene, a.to);
+                    self.goto = None;
+                }
+            }
+            None => {
+                if !menu_open {
+                    self.controller.apply(scene, &intent, &mut self.rng);
+                }
+            }
+        }
+        let mut effects = Vec::new();
+        if let (Some(r), Some(g)) = (self.rec.as_mut(), graph) {
+            let before = r.state;
+            let ctx = ViewContext { camera: self.controller.camera(), ..ctx };
+            effects = r.step(g, &ctx, rec_event, t, &mut self.rng);
+            for fx in &effects {
+                match *fx {
+                    Effect::StartGoTo { node, duration } => {
+                        self.goto = Some(GoTo {
+                            from: self.controller.camera(),
+                            to: g.nodes[node].view,
+                            start: t,
+                            duration,
+                        });
+                    }
+                    Effect::ShowOverlay { node } => {
+                        self.summary.nodes_displayed.push(g.nodes[node].id.clone())
+                    }
+                    _ => {}
+                }
+            }
+            match (before, r.state) {
+                (RecState::Propose { .. }, RecState::GoTo { .. }) => self.summary.proposals_accepted += 1,
+                (RecState::Propose { .. }, RecState::Discover { .. }) => self.summary.proposals_ignored += 1,
+                _ => {}
+            }
+        }
+        let cam = match self.goto {
+            Some(a) => a.camera_at(t, SceneRef { store, cut: &self.cut }, self.min_distance),
+            None => self.controller.camera(),
+        };
+        self.camera = cam;
+        if let Some(v) = cam.view_params(store, settings.size_px) {
+            self.cut.update(store, &v, &settings.cut);
+        }
+        let surface = store.nearest_sample(cam.eye).map_or(f64::NAN, |(d, _)| d);
+        if surface < self.min_distance * (1.0 - self.tolerance) {
+            self.summary.collisions += 1;
+        }
+        self.summary.min_surface_distance = self.summary.min_surface_distance.min(surface);
+        self.summary.frames += 1;
+        let state = if menu_open {
+            "menu"
+        } else if self.goto.is_some() {
+            "go-to"
+        } else if intent.zoom != 0.0 {
+            "zoom"
+        } else if intent.hover != (0.0, 0.0) || intent.pan != (0.0, 0.0) {
+            "hover"
+        } else if intent.twist != 0.0 {
+            "twist"
+        } else {
+            "idle"
+        };
+        let id = |i: usize| graph.and_then(|g| g.nodes.get(i)).map(|n| n.id.clone());
+        let rec = self.rec.as_ref();
+        let frame = Frame {
+            t,
+            eye: cam.eye.to_array(),
+            target: cam.target.to_array(),
+            up: cam.up.to_array(),
+            surface_distance: surface,
+            min_distance: self.min_distance,
+            controller: state,
+            isolevel: match &self.controller {
+                Controller::IsoCam(c) => Some(c.isolevel()),
+                _ => None,
+            },
+            recommender: rec.map(|r| r.state.name().to_string()),
+            node: rec.and_then(|r| r.state.node()).and_then(id),
+            overlay: match rec.map(|r| r.state) {
+                Some(RecState::Display { node, .. }) => id(node),
+                _ => None,
+            },
+            menu: menu_open.then(|| MenuTrace {
+                open: true,
+                candidates: self.menu.iter().flat_map(|m| &m.candidates).filter_map(|&i| id(i)).collect(),
+            }),
+            cut_nodes: self.cut.nodes().len(),
+        };
+        (frame, effects)
+    }
+
+    /// The controller's name (isocam, trackball, acevit).
+    pub fn controller_name(&self) -> &'static str {
+        self.controller.name()
+    }
+}

@@ -1,0 +1,482 @@
+//! The kiosk's behaviour above one exploration (thesis 9.8.10, DESIGN §7): a gallery of models
+//! on the controller (swipe, tap), help/back/language buttons while exploring, the attract loop
+//! after inactivity (the recommender tours the model on its own), and the reset to the gallery,
+//! its first model and the default language after a longer inactivity.
+//!
+//! Pure like the rest of the core: the shell hands in touch events and times; the kiosk hands back
+//! what to draw and what to play. A recorded session replayed through [`run_session`] gives the
+//! same frames as the live kiosk did.
+
+use crate::explore::Explorer;
+use crate::gesture::{TouchEvent, TouchKind};
+use crate::graph::InfoGraph;
+use crate::recommend::{Effect, RecState};
+use crate::replay::{Frame, ReplaySettings};
+use crate::scene::Store;
+use crate::session::Session;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// What the kiosk shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Mode {
+    /// The gallery of models on the controller.
+    Gallery,
+    /// A visitor explores a model.
+    Explore,
+    /// Nobody touched for a while: the engine tours the model on its own.
+    Attract,
+}
+
+/// A button of the controller window.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ButtonKind {
+    /// Back to the gallery.
+    Back,
+    /// Show or hide the help.
+    Help,
+    /// Next language.
+    Language,
+    /// Previous model of the gallery.
+    Previous,
+    /// Next model of the gallery.
+    Next,
+    /// Explore the gallery's current model.
+    Explore,
+}
+
+/// A button and where it is on the controller surface (normalised, origin top-left).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Button {
+    /// What it does.
+    pub kind: ButtonKind,
+    /// `[x0, y0, x1, y1]`.
+    pub rect: [f64; 4],
+}
+
+impl Button {
+    /// Whether the point is inside.
+    pub fn contains(&self, x: f64, y: f64) -> bool {
+        x >= self.rect[0] && x <= self.rect[2] && y >= self.rect[1] && y <= self.rect[3]
+    }
+}
+
+const BACK: Button = Button { kind: ButtonKind::Back, rect: [0.0, 0.0, 0.16, 0.14] };
+const HELP: Button = Button { kind: ButtonKind::Help, rect: [0.84, 0.0, 1.0, 0.14] };
+const LANGUAGE: Button = Button { kind: ButtonKind::Language, rect: [0.66, 0.0, 0.82, 0.14] };
+const PREVIOUS: Button = Button { kind: ButtonKind::Previous, rect: [0.0, 0.3, 0.12, 0.7] };
+const NEXT: Button = Button { kind: ButtonKind::Next, rect: [0.88, 0.3, 1.0, 0.7] };
+const EXPLORE: Button = Button { kind: ButtonKind::Explore, rect: [0.3, 0.78, 0.7, 0.94] };
+
+/// The buttons of the controller in a mode (the shell draws them where they are hit-tested).
+pub fn buttons(mode: Mode) -> &'static [Button] {
+    match mode {
+        Mode::Gallery => &[LANGUAGE, PREVIOUS, NEXT, EXPLORE],
+        Mode::Explore => &[BACK, LANGUAGE, HELP],
+        Mode::Attract => &[],
+    }
+}
+
+/// Settings of the kiosk's behaviour.
+#[derive(Clone, Debug)]
+pub struct KioskSettings {
+    /// Seconds without a touch while exploring before the attract loop starts.
+    pub attract_after_secs: f64,
+    /// Seconds without a touch before the reset to the gallery (counted from the last touch).
+    pub reset_after_secs: f64,
+    /// Languages offered, the first is the default.
+    pub languages: Vec<String>,
+    /// A gallery swipe: horizontal travel at least this (fraction of the width).
+    pub swipe_min: f64,
+    /// A tap: released within this many seconds…
+    pub tap_max_secs: f64,
+    /// …having moved at most this far.
+    pub tap_max_move: f64,
+    /// Settings of each exploration (controller, gestures, recommender, radial menu, seed).
+    pub explore: ReplaySettings,
+}
+
+impl Default for KioskSettings {
+    fn default() -> Self {
+        Self {
+            attract_after_secs: 60.0,
+            reset_after_secs: 180.0,
+            languages: vec!["en".into(), "it".into()],
+            swipe_min: 0.12,
+            tap_max_secs: 0.5,
+            tap_max_move: 0.03,
+            explore: ReplaySettings::default(),
+        }
+    }
+}
+
+/// One model of the exhibit as the kiosk sees it.
+pub struct ModelRef<'a, B: AsRef<[u8]>> {
+    /// Its store.
+    pub store: &'a Store<B>,
+    /// Its story, if any.
+    pub graph: Option<&'a InfoGraph>,
+}
+
+/// What the shell must do besides drawing.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "effect", rename_all = "kebab-case")]
+pub enum KioskEffect {
+    /// Play a node's narration in a language (stopping any other).
+    PlayNarration {
+        /// Model index.
+        model: usize,
+        /// Node index.
+        node: usize,
+        /// Language.
+        lang: String,
+    },
+    /// Stop the narration.
+    StopNarration,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Route {
+    Button(ButtonKind),
+    Explorer,
+    Gallery {
+        t0: f64,
+        x0: f64,
+        y0: f64,
+        moved: f64,
+    },
+    /// The touch that woke the kiosk from the attract loop: spent.
+    Spent,
+}
+
+/// One line of the kiosk's trace.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct KioskFrame {
+    /// Kiosk time.
+    pub t: f64,
+    /// Mode.
+    pub mode: Mode,
+    /// The model shown (gallery: the current card).
+    pub model: usize,
+    /// Language.
+    pub lang: String,
+    /// Whether the help is shown.
+    pub help: bool,
+    /// Seconds until the reset (attract loop).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub countdown: Option<f64>,
+    /// The exploration's frame (exploring or attracting).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub explore: Option<Frame>,
+    /// Effects of this frame.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub effects: Vec<KioskEffect>,
+}
+
+/// The kiosk.
+pub struct Kiosk {
+    /// Settings.
+    pub settings: KioskSettings,
+    mode: Mode,
+    model: usize,
+    models: usize,
+    explorers: Vec<Option<Explorer>>,
+    lang: usize,
+    help: bool,
+    last_input: f64,
+    now: f64,
+    routes: BTreeMap<i64, Route>,
+    narrating: Option<(usize, usize)>,
+    visits: u64,
+    pending: Vec<KioskEffect>,
+}
+
+impl Kiosk {
+    /// A kiosk over `models` models, starting in the gallery at time `now`.
+    pub fn new(settings: KioskSettings, models: usize, now: f64) -> Self {
+        Self {
+            settings,
+            mode: Mode::Gallery,
+            model: 0,
+            models,
+            explorers: (0..models).map(|_| None).collect(),
+            lang: 0,
+            help: false,
+            last_input: now,
+            now,
+            routes: BTreeMap::new(),
+            narrating: None,
+            visits: 0,
+            pending: Vec::new(),
+        }
+    }
+
+    /// Mode.
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    /// The current model (the gallery's card, or the one explored).
+    pub fn model(&self) -> usize {
+        self.model
+    }
+
+    /// Current language.
+    pub fn lang(&self) -> &str {
+        self.settings.languages.get(self.lang).map_or("en", String::as_str)
+    }
+
+    /// Whether the help is shown.
+    pub fn help(&self) -> bool {
+        self.help
+    }
+
+    /// The exploration of the current model, while exploring or attracting.
+    pub fn explorer(&self) -> Option<&Explorer> {
+        match self.mode {
+            Mode::Gallery => None,
+            _ => self.explorers.get(self.model).and_then(Option::as_ref),
+        }
+    }
+
+    /// The narration playing: (model, node).
+    pub fn narrating(&self) -> Option<(usize, usize)> {
+        self.narrating
+    }
+
+    /// Seconds until the reset, in the attract loop.
+    pub fn countdown(&self) -> Option<f64> {
+        (self.mode == Mode::Attract)
+            .then(|| (self.settings.reset_after_secs - (self.now - self.last_input)).max(0.0))
+    }
+
+    /// Seconds since the last touch.
+    pub fn idle_secs(&self) -> f64 {
+        self.now - self.last_input
+    }
+
+    fn stop_narration(&mut self) {
+        if self.narrating.take().is_some() {
+            self.pending.push(KioskEffect::StopNarration);
+        }
+    }
+
+    fn press(&mut self, kind: ButtonKind) {
+        match kind {
+            ButtonKind::Back => {
+                self.stop_narration();
+                if let Some(e) = self.explorers.get_mut(self.model).and_then(Option::as_mut) {
+                    e.release_all(self.now);
+                }
+                self.mode = Mode::Gallery;
+                self.help = false;
+            }
+            ButtonKind::Help => self.help = !self.help,
+            ButtonKind::Language => {
+                self.lang = (self.lang + 1) % self.settings.languages.len().max(1);
+                if let Some((model, node)) = self.narrating {
+                    self.pending.push(KioskEffect::PlayNarration {
+                        model,
+                        node,
+                        lang: self.lang().to_string(),
+                    });
+                }
+            }
+            ButtonKind::Previous => self.model = (self.model + self.models.max(1) - 1) % self.models.max(1),
+            ButtonKind::Next => self.model = (self.model + 1) % self.models.max(1),
+            ButtonKind::Explore => self.mode = Mode::Explore,
+        }
+    }
+
+    /// Feeds one touch event of the controller surface (its `t` is the kiosk's clock).
+    pub fn touch(&mut self, e: &TouchEvent) {
+        if !(e.t.is_finite() && e.x.is_finite() && e.y.is_finite()) {
+            return;
+        }
+        self.last_input = self.last_input.max(e.t);
+        if e.ev == TouchKind::Down {
+            let route = match self.mode {
+                Mode::Attract => {
+                    // A touch takes over: the tour stops, this finger is spent.
+                    self.mode = Mode::Explore;
+                    if let Some(x) = self.explorers.get_mut(self.model).and_then(Option::as_mut) {
+                        x.autopilot = false;
+                    }
+                    Route::Spent
+                }
+                mode => match buttons(mode).iter().find(|b| b.contains(e.x, e.y)) {
+                    Some(b) if !self.routes.values().any(|r| *r == Route::Explorer) => Route::Button(b.kind),
+                    _ if mode == Mode::Gallery => Route::Gallery { t0: e.t, x0: e.x, y0: e.y, moved: 0.0 },
+                    _ => Route::Explorer,
+                },
+            };
+            self.routes.insert(e.id, route);
+            if route == Route::Explorer {
+                self.feed_explorer(e);
+            }
+            return;
+        }
+        let Some(route) = self.routes.get_mut(&e.id) else { return };
+        let end = matches!(e.ev, TouchKind::Up | TouchKind::Cancel);
+        match route {
+            Route::Explorer => {
+                let e = *e;
+                if end {
+                    self.routes.remove(&e.id);
+                }
+                self.feed_explorer(&e);
+            }
+            Route::Gallery { t0, x0, y0, moved } => {
+                *moved = moved.max((e.x - *x0).hypot(e.y - *y0));
+                let (t0, dx, dy, moved) = (*t0, e.x - *x0, e.y - *y0, *moved);
+                if end {
+                    self.routes.remove(&e.id);
+                    if e.ev == TouchKind::Up {
+                        if dx.abs() >= self.settings.swipe_min && dx.abs() > dy.abs() {
+                            // Swipe left shows the next model, as a page turns.
+                            self.press(if dx < 0.0 { ButtonKind::Next } else { ButtonKind::Previous });
+                        } else if e.t - t0 <= self.settings.tap_max_secs
+                            && moved <= self.settings.tap_max_move
+                        {
+                            self.press(ButtonKind::Explore);
+                        }
+                    }
+                }
+            }
+            Route::Button(kind) => {
+                let kind = *kind;
+                if end {
+                    self.routes.remove(&e.id);
+                    let inside = buttons(self.mode).iter().any(|b| b.kind == kind && b.contains(e.x, e.y));
+                    if e.ev == TouchKind::Up && inside {
+                        self.press(kind);
+                    }
+                }
+            }
+            Route::Spent => {
+                if end {
+                    self.routes.remove(&e.id);
+                }
+            }
+        }
+    }
+
+    fn feed_explorer(&mut self, e: &TouchEvent) {
+        if let Some(x) = self.explorers.get_mut(self.model).and_then(Option::as_mut) {
+            x.touch(e);
+        }
+    }
+
+    /// The mouse's right button (thesis 9.5.2): the radial menu at once.
+    pub fn menu_button(&mut self, t: f64, x: f64, y: f64) {
+        self.last_input = self.last_input.max(t);
+        if self.mode == Mode::Explore
+            && let Some(e) = self.explorers.get_mut(self.model).and_then(Option::as_mut)
+        {
+            e.menu_button(x, y);
+        }
+    }
+
+    fn reset(&mut self) {
+        self.stop_narration();
+        self.mode = Mode::Gallery;
+        self.model = 0;
+        self.lang = 0;
+        self.help = false;
+        self.routes.clear();
+        for e in &mut self.explorers {
+            *e = None;
+        }
+    }
+
+    /// Advances to `t` (one frame of the exploration's clock after the previous step).
+    pub fn step<B: AsRef<[u8]>>(&mut self, models: &[ModelRef<'_, B>], t: f64) -> KioskFrame {
+        self.now = t;
+        let idle = t - self.last_input;
+        let touched = !self.routes.is_empty();
+        if !touched
+            && idle >= self.settings.reset_after_secs
+            && (self.mode != Mode::Gallery || self.model != 0 || self.lang != 0)
+        {
+            self.reset();
+        } else if !touched && self.mode == Mode::Explore && idle >= self.settings.attract_after_secs {
+            self.mode = Mode::Attract;
+            self.help = false;
+        }
+        let mut frame = None;
+        if self.mode != Mode::Gallery
+            && let Some(m) = models.get(self.model)
+        {
+            let model = self.model;
+            let slot = &mut self.explorers[model];
+            if slot.is_none() {
+                // Each visit gets its own seed: a different story order per visitor, reproducible.
+                let mut s = self.settings.explore;
+                s.seed = s.seed.wrapping_add(self.visits);
+                self.visits += 1;
+                *slot = Some(Explorer::new(m.store, m.graph, &s, t));
+            }
+            if let Some(x) = slot.as_mut() {
+                x.autopilot = self.mode == Mode::Attract;
+                let (f, effects) = x.step(m.store, m.graph, t);
+                for fx in effects {
+                    match fx {
+                        Effect::PlayNarration { node } => {
+                            self.narrating = Some((model, node));
+                            let lang = self.lang().to_string();
+                            self.pending.push(KioskEffect::PlayNarration { model, node, lang });
+                        }
+                        Effect::StopNarration { .. } => self.stop_narration(),
+                        _ => {}
+                    }
+                }
+                frame = Some(f);
+            }
+        }
+        // A narration ends with its display, whatever ended it.
+        if let Some((model, node)) = self.narrating {
+            let displayed = self.explorer().and_then(|x| x.recommender()).map(|r| r.state);
+            if model != self.model
+                || !matches!(displayed, Some(RecState::Display { node: n, .. }) if n == node)
+            {
+                self.stop_narration();
+            }
+        }
+        KioskFrame {
+            t,
+            mode: self.mode,
+            model: self.model,
+            lang: self.lang().to_string(),
+            help: self.help,
+            countdown: self.countdown(),
+            explore: frame,
+            effects: std::mem::take(&mut self.pending),
+        }
+    }
+}
+
+/// Runs a recorded session through the kiosk at its fixed clock and returns every frame: the
+/// kiosk's own replay (the same path as the live windows).
+pub fn run_session<B: AsRef<[u8]>>(
+    models: &[ModelRef<'_, B>],
+    session: &Session,
+    settings: &KioskSettings,
+    extra_secs: f64,
+) -> Vec<KioskFrame> {
+    let mut kiosk = Kiosk::new(settings.clone(), models.len(), 0.0);
+    let dt = 1.0 / settings.explore.fps;
+    let frames = ((session.duration() + extra_secs) * settings.explore.fps).ceil() as u64 + 1;
+    let mut next = 0;
+    let mut out = Vec::with_capacity(frames as usize);
+    for k in 0..frames {
+        let t = k as f64 * dt;
+        while next < session.events.len() && session.events[next].t <= t + 1e-9 {
+            kiosk.touch(&session.events[next]);
+            next += 1;
+        }
+        out.push(kiosk.step(models, t));
+    }
+    out
+}

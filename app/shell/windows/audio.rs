@@ -1,0 +1,102 @@
+//! Narration with kira. Without an audio device the kiosk runs silently on kira's mock backend
+//! (same loading and playing path, no sound) and says so once in the log.
+
+use kira::backend::mock::{MockBackend, MockBackendSettings};
+use kira::sound::static_sound::{StaticSoundData, StaticSoundHandle};
+use kira::{AudioManager, AudioManagerSettings, Decibels, DefaultBackend, Tween};
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+
+enum Manager {
+    Device(Box<AudioManager<DefaultBackend>>),
+    Silent(Box<AudioManager<MockBackend>>),
+    /// Not even the mock backend started: narration is skipped.
+    None,
+}
+
+/// Plays one narration at a time.
+pub struct Narrator {
+    manager: Manager,
+    playing: Option<StaticSoundHandle>,
+    /// Files already reported as broken (logged once each).
+    reported: HashSet<PathBuf>,
+    /// What is playing (for the log and tests).
+    pub current: Option<PathBuf>,
+}
+
+fn decibels(volume: f64) -> Decibels {
+    if volume <= 0.0 { Decibels::SILENCE } else { Decibels((20.0 * volume.log10()) as f32) }
+}
+
+impl Narrator {
+    /// Opens the default audio device, or the silent backend when there is none (`silent` forces
+    /// it, e.g. for tests).
+    pub fn new(volume: f64, silent: bool) -> Self {
+        let device = if silent {
+            Err("silent mode requested".to_string())
+        } else {
+            AudioManager::<DefaultBackend>::new(AudioManagerSettings::default()).map_err(|e| e.to_string())
+        };
+        let mut manager = match device {
+            Ok(m) => Manager::Device(Box::new(m)),
+            Err(e) => {
+                tracing::warn!("no audio device ({e}): narration is silent, captions still show");
+                let settings = AudioManagerSettings {
+                    backend_settings: MockBackendSettings { sample_rate: 48_000 },
+                    ..Default::default()
+                };
+                match AudioManager::<MockBackend>::new(settings) {
+                    Ok(m) => Manager::Silent(Box::new(m)),
+                    Err(()) => Manager::None,
+                }
+            }
+        };
+        let db = decibels(volume);
+        match &mut manager {
+            Manager::Device(m) => m.main_track().set_volume(db, Tween::default()),
+            Manager::Silent(m) => m.main_track().set_volume(db, Tween::default()),
+            Manager::None => {}
+        }
+        Self { manager, playing: None, reported: HashSet::new(), current: None }
+    }
+
+    /// Whether sound actually reaches a device.
+    pub fn audible(&self) -> bool {
+        matches!(self.manager, Manager::Device(_))
+    }
+
+    /// Plays a file (stopping the previous narration). A missing or broken file is logged once
+    /// and the kiosk goes on without it.
+    pub fn play(&mut self, path: &Path) {
+        self.stop();
+        let data = match StaticSoundData::from_file(path) {
+            Ok(d) => d,
+            Err(e) => {
+                if self.reported.insert(path.to_path_buf()) {
+                    tracing::warn!("narration {}: {e}; skipped", path.display());
+                }
+                return;
+            }
+        };
+        let handle = match &mut self.manager {
+            Manager::Device(m) => m.play(data).map_err(|e| e.to_string()),
+            Manager::Silent(m) => m.play(data).map_err(|e| e.to_string()),
+            Manager::None => return,
+        };
+        match handle {
+            Ok(h) => {
+                self.playing = Some(h);
+                self.current = Some(path.to_path_buf());
+            }
+            Err(e) => tracing::warn!("narration {}: cannot play: {e}", path.display()),
+        }
+    }
+
+    /// Stops the narration with a short fade.
+    pub fn stop(&mut self) {
+        if let Some(mut h) = self.playing.take() {
+            h.stop(Tween { duration: std::time::Duration::from_millis(300), ..Default::default() });
+        }
+        self.current = None;
+    }
+}

@@ -1,0 +1,213 @@
+//! The kiosk's configuration file (TOML): which content, which monitor each window goes to,
+//! fullscreen or not, portrait rotation, real-scale projection, timeouts, languages, volume.
+//! Every key is optional; unknown keys are an error naming them (a typo must not pass silently).
+
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// One window's placement.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct WindowConfig {
+    /// Monitor index (winit's order); out of range → the first monitor, logged.
+    pub monitor: usize,
+    /// Borderless fullscreen on that monitor.
+    pub fullscreen: bool,
+    /// Size when not fullscreen (pixels).
+    pub size: [u32; 2],
+    /// Content rotation in degrees (0, 90, 180, 270): a projector mounted on its side.
+    pub rotation: u32,
+}
+
+impl WindowConfig {
+    fn projection() -> Self {
+        Self { monitor: 0, fullscreen: true, size: [1280, 720], rotation: 0 }
+    }
+    fn controller() -> Self {
+        Self { monitor: 1, fullscreen: true, size: [800, 480], rotation: 0 }
+    }
+}
+
+impl Default for WindowConfig {
+    fn default() -> Self {
+        Self::projection()
+    }
+}
+
+/// Real-scale display (thesis 9.8.10): the vertical field of view is the angle the screen
+/// subtends at the viewer, so one model unit (metre) shows as one metre on the wall.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RealScale {
+    /// Height of the projected image in metres.
+    pub screen_height_m: f64,
+    /// Distance from the viewer's eyes to the screen in metres.
+    pub viewer_distance_m: f64,
+}
+
+impl RealScale {
+    /// The vertical field of view in radians.
+    pub fn fov_y(&self) -> f64 {
+        2.0 * (0.5 * self.screen_height_m / self.viewer_distance_m.max(1e-3)).atan()
+    }
+}
+
+/// The whole configuration.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct Config {
+    /// The content directory (one sub-directory per exhibit); relative to the config file.
+    pub content: PathBuf,
+    /// Exhibits in gallery order (sub-directory names); empty = every sub-directory, sorted.
+    pub exhibits: Vec<String>,
+    /// The projection window.
+    pub projection: WindowConfig,
+    /// The controller (touch) window.
+    pub controller: WindowConfig,
+    /// Vertical field of view in degrees, unless `real_scale` is given.
+    pub fov_deg: f64,
+    /// Real-scale projection.
+    pub real_scale: Option<RealScale>,
+    /// Seconds without a touch before the attract loop.
+    pub attract_after_secs: f64,
+    /// Seconds without a touch before the reset to the gallery.
+    pub reset_after_secs: f64,
+    /// Languages offered; the first is the default.
+    pub languages: Vec<String>,
+    /// Narration volume in [0, 1].
+    pub volume: f64,
+    /// Seed of the recommendations (each visit adds its number).
+    pub seed: u64,
+    /// Pixel tolerance of the cut (larger = faster, coarser).
+    pub tolerance_px: f32,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Self {
+            content: PathBuf::from("content"),
+            exhibits: Vec::new(),
+            projection: WindowConfig::projection(),
+            controller: WindowConfig::controller(),
+            fov_deg: 45.8,
+            real_scale: None,
+            attract_after_secs: 60.0,
+            reset_after_secs: 180.0,
+            languages: vec!["en".into(), "it".into()],
+            volume: 1.0,
+            seed: 0,
+            tolerance_px: 1.5,
+        }
+    }
+}
+
+impl Config {
+    /// Parses a configuration; errors name the line and key.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let c: Self = toml::from_str(text).map_err(|e| e.to_string())?;
+        c.check()?;
+        Ok(c)
+    }
+
+    /// Reads a configuration file; relative paths in it are taken from its directory.
+    pub fn load(path: &Path) -> anyhow::Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| anyhow::anyhow!("cannot read config {}: {e}", path.display()))?;
+        let mut c = Self::parse(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        if c.content.is_relative()
+            && let Some(dir) = path.parent()
+        {
+            c.content = dir.join(&c.content);
+        }
+        Ok(c)
+    }
+
+    fn check(&self) -> Result<(), String> {
+        for (name, w) in [("projection", &self.projection), ("controller", &self.controller)] {
+            if w.rotation % 90 != 0 || w.rotation >= 360 {
+                return Err(format!("[{name}] rotation = {}: must be 0, 90, 180 or 270", w.rotation));
+            }
+            if w.size[0] == 0 || w.size[1] == 0 {
+                return Err(format!("[{name}] size = {:?}: must be positive", w.size));
+            }
+        }
+        if !(self.fov_deg > 1.0 && self.fov_deg < 170.0) {
+            return Err(format!("fov_deg = {}: must be between 1 and 170", self.fov_deg));
+        }
+        if let Some(r) = &self.real_scale
+            && !(r.screen_height_m > 0.0 && r.viewer_distance_m > 0.0)
+        {
+            return Err("[real_scale] screen_height_m and viewer_distance_m must be positive".into());
+        }
+        if !(self.attract_after_secs > 0.0 && self.reset_after_secs >= self.attract_after_secs) {
+            return Err(format!(
+                "attract_after_secs = {}, reset_after_secs = {}: need 0 < attract ≤ reset",
+                self.attract_after_secs, self.reset_after_secs
+            ));
+        }
+        if self.languages.is_empty() {
+            return Err("languages: at least one".into());
+        }
+        if !(0.0..=1.0).contains(&self.volume) {
+            return Err(format!("volume = {}: must be in [0, 1]", self.volume));
+        }
+        if self.tolerance_px.is_nan() || self.tolerance_px <= 0.0 {
+            return Err(format!("tolerance_px = {}: must be positive", self.tolerance_px));
+        }
+        Ok(())
+    }
+
+    /// The vertical field of view in radians.
+    pub fn fov_y(&self) -> f64 {
+        self.real_scale.as_ref().map_or(self.fov_deg.to_radians(), RealScale::fov_y)
+    }
+
+    /// The exhibit directories in gallery order.
+    pub fn exhibit_dirs(&self) -> anyhow::Result<Vec<PathBuf>> {
+        if !self.exhibits.is_empty() {
+            return Ok(self.exhibits.iter().map(|e| self.content.join(e)).collect());
+        }
+        let mut dirs: Vec<PathBuf> = std::fs::read_dir(&self.content)
+            .map_err(|e| anyhow::anyhow!("cannot read content directory {}: {e}", self.content.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.is_dir())
+            .collect();
+        dirs.sort();
+        Ok(dirs)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_and_overrides() {
+        let c = Config::parse("").expect("empty config");
+        assert_eq!(c, Config::default());
+        let c = Config::parse(
+            "languages = [\"it\", \"en\"]\nattract_after_secs = 5\nreset_after_secs = 9\n\
+             [projection]\nmonitor = 1\nrotation = 90\n[real_scale]\nscreen_height_m = 2.5\nviewer_distance_m = 3.0\n",
+        )
+        .expect("valid config");
+        assert_eq!(c.languages, ["it", "en"]);
+        assert_eq!(c.projection.rotation, 90);
+        assert!(c.projection.fullscreen, "unspecified keys keep their defaults");
+        // 2.5 m seen from 3 m: 2·atan(1.25/3) = 45.24°.
+        assert!((c.fov_y().to_degrees() - 45.2397).abs() < 1e-3, "{}", c.fov_y().to_degrees());
+    }
+
+    #[test]
+    fn errors_name_the_key() {
+        let e = Config::parse("atract_after_secs = 5").expect_err("typo");
+        assert!(e.contains("atract_after_secs"), "{e}");
+        let e = Config::parse("[controller]\nrotation = 45").expect_err("rotation");
+        assert!(e.contains("rotation = 45"), "{e}");
+        let e = Config::parse("volume = 2.0").expect_err("volume");
+        assert!(e.contains("volume"), "{e}");
+        let e = Config::parse("fov_deg = \"wide\"").expect_err("type");
+        assert!(e.contains("line 1") || e.contains("fov_deg"), "{e}");
+        let e = Config::parse("attract_after_secs = 100\nreset_after_secs = 50").expect_err("order");
+        assert!(e.contains("attract"), "{e}");
+    }
+}

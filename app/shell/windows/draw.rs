@@ -1,0 +1,382 @@
+//! What each window shows, drawn with egui shapes in points of a 720-point-high layout.
+
+use egui::{Align2, Color32, FontId, Pos2, Rect, Stroke, TextureHandle, pos2, vec2};
+use kiosk_core::kiosk::{Button, ButtonKind, Mode, buttons};
+
+/// Words of the interface in a language (English for languages without a table).
+pub struct Words {
+    /// Back button.
+    pub back: &'static str,
+    /// Help button.
+    pub help: &'static str,
+    /// Explore button.
+    pub explore: &'static str,
+    /// Gallery hint.
+    pub gallery_hint: &'static str,
+    /// Minimal help while exploring.
+    pub help_text: &'static str,
+    /// Hint while exploring.
+    pub explore_hint: &'static str,
+    /// Attract loop call.
+    pub touch_to_explore: &'static str,
+    /// Countdown to the reset ("{s}" is replaced by seconds).
+    pub countdown: &'static str,
+    /// Under the suggestion inset.
+    pub inset_hint: &'static str,
+}
+
+/// The interface words of a language.
+pub fn words(lang: &str) -> &'static Words {
+    match lang {
+        "it" => &Words {
+            back: "Galleria",
+            help: "?",
+            explore: "Esplora",
+            gallery_hint: "Scorri per sfogliare, tocca per esplorare",
+            help_text: "Trascina un dito per girare intorno alla statua.\nAvvicina o allontana due dita per lo zoom.\nTieni premuto per i punti vicini.\nCon il mouse: la barra a sinistra fa lo zoom.",
+            explore_hint: "Trascina per muoverti · tieni premuto per i punti vicini",
+            touch_to_explore: "Tocca per esplorare",
+            countdown: "Ritorno alla galleria tra {s} s",
+            inset_hint: "Tieni premuto per andarci",
+        },
+        _ => &Words {
+            back: "Gallery",
+            help: "?",
+            explore: "Explore",
+            gallery_hint: "Swipe to browse, tap to explore",
+            help_text: "Drag one finger to glide around the statue.\nPinch with two fingers to come closer or step back.\nHold your finger still for nearby places.\nWith a mouse: the bar on the left edge zooms.",
+            explore_hint: "Drag to move · hold for nearby places",
+            touch_to_explore: "Touch to explore",
+            countdown: "Back to the gallery in {s} s",
+            inset_hint: "Hold to go there",
+        },
+    }
+}
+
+const PANEL: Color32 = Color32::from_rgba_premultiplied(12, 14, 20, 200);
+const ACCENT: Color32 = Color32::from_rgb(236, 190, 90);
+
+fn rect_of(b: &Button, screen: Rect) -> Rect {
+    Rect::from_min_max(
+        pos2(screen.width() * b.rect[0] as f32, screen.height() * b.rect[1] as f32),
+        pos2(screen.width() * b.rect[2] as f32, screen.height() * b.rect[3] as f32),
+    )
+    .shrink(6.0)
+}
+
+fn wrapped(
+    p: &egui::Painter,
+    text: &str,
+    size: f32,
+    width: f32,
+    color: Color32,
+) -> std::sync::Arc<egui::Galley> {
+    p.layout(text.to_string(), FontId::proportional(size), color, width)
+}
+
+/// What the controller window shows.
+pub struct ControllerView<'a> {
+    /// Mode.
+    pub mode: Mode,
+    /// Language code and the languages offered.
+    pub lang: &'a str,
+    /// Languages.
+    pub languages: &'a [String],
+    /// Whether the help is open.
+    pub help: bool,
+    /// Seconds before the reset (attract loop).
+    pub countdown: Option<f64>,
+    /// Gallery: (title, thumbnail) of the current model, its index, and the count.
+    pub card: (&'a str, Option<&'a TextureHandle>),
+    /// Index of the model and number of models.
+    pub page: (usize, usize),
+    /// Captions of the narration playing (title, text).
+    pub caption: Option<(&'a str, &'a str)>,
+    /// Width of the zoom bar (fraction of the height).
+    pub zoom_bar: f64,
+}
+
+/// Draws the controller window (no model content, R8).
+pub fn controller(ctx: &egui::Context, v: &ControllerView<'_>) {
+    let screen = ctx.content_rect();
+    let p = ctx.layer_painter(egui::LayerId::background());
+    let w = words(v.lang);
+    p.rect_filled(screen, 0.0, Color32::from_rgb(18, 20, 26));
+    let label = |kind: ButtonKind| -> String {
+        match kind {
+            ButtonKind::Back => w.back.into(),
+            ButtonKind::Help => w.help.into(),
+            ButtonKind::Language => v
+                .languages
+                .iter()
+                .map(|l| if l == v.lang { l.to_uppercase() } else { l.clone() })
+                .collect::<Vec<_>>()
+                .join(" · "),
+            ButtonKind::Previous | ButtonKind::Next => String::new(),
+            ButtonKind::Explore => w.explore.into(),
+        }
+    };
+    match v.mode {
+        Mode::Gallery => {
+            let (title, thumb) = v.card;
+            let area = Rect::from_center_size(
+                pos2(screen.center().x, screen.height() * 0.46),
+                vec2(screen.width() * 0.66, screen.height() * 0.56),
+            );
+            match thumb {
+                Some(t) => {
+                    let s = t.size_vec2();
+                    let scale = (area.width() / s.x).min(area.height() / s.y);
+                    let r = Rect::from_center_size(area.center(), s * scale);
+                    p.image(t.id(), r, Rect::from_min_max(Pos2::ZERO, pos2(1.0, 1.0)), Color32::WHITE);
+                    p.rect_stroke(
+                        r,
+                        4.0,
+                        Stroke::new(1.0, Color32::from_gray(90)),
+                        egui::StrokeKind::Outside,
+                    );
+                }
+                None => {
+                    p.rect_filled(area, 6.0, Color32::from_gray(40));
+                }
+            }
+            p.text(
+                pos2(screen.center().x, screen.height() * 0.1),
+                Align2::CENTER_CENTER,
+                title,
+                FontId::proportional(40.0),
+                Color32::WHITE,
+            );
+            p.text(
+                pos2(screen.center().x, screen.height() * 0.77),
+                Align2::CENTER_CENTER,
+                w.gallery_hint,
+                FontId::proportional(20.0),
+                Color32::from_gray(170),
+            );
+            let (i, n) = v.page;
+            for k in 0..n {
+                let c = pos2(
+                    screen.center().x + (k as f32 - (n as f32 - 1.0) / 2.0) * 22.0,
+                    screen.height() * 0.97,
+                );
+                p.circle_filled(c, 5.0, if k == i { ACCENT } else { Color32::from_gray(80) });
+            }
+        }
+        Mode::Explore => {
+            let bar =
+                Rect::from_min_max(Pos2::ZERO, pos2(screen.width() * v.zoom_bar as f32, screen.height()));
+            let bar =
+                Rect::from_min_max(pos2(0.0, screen.height() * 0.16), pos2(bar.right(), screen.height()));
+            p.rect_filled(bar, 0.0, Color32::from_gray(30));
+            p.text(
+                pos2(bar.center().x, bar.top() + 24.0),
+                Align2::CENTER_CENTER,
+                "+",
+                FontId::proportional(28.0),
+                Color32::from_gray(150),
+            );
+            p.text(
+                pos2(bar.center().x, bar.bottom() - 24.0),
+                Align2::CENTER_CENTER,
+                "−",
+                FontId::proportional(28.0),
+                Color32::from_gray(150),
+            );
+            if v.help {
+                let g = wrapped(&p, w.help_text, 26.0, screen.width() * 0.7, Color32::WHITE);
+                let r = Rect::from_center_size(screen.center(), g.size() + vec2(48.0, 40.0));
+                p.rect_filled(r, 10.0, PANEL);
+                p.galley(r.min + vec2(24.0, 20.0), g, Color32::WHITE);
+            } else {
+                p.text(
+                    screen.center(),
+                    Align2::CENTER_CENTER,
+                    w.explore_hint,
+                    FontId::proportional(22.0),
+                    Color32::from_gray(110),
+                );
+            }
+            if let Some((title, text)) = v.caption {
+                let g = wrapped(&p, text, 22.0, screen.width() * 0.8, Color32::WHITE);
+                let top = screen.bottom() - g.size().y - 70.0;
+                let r = Rect::from_min_max(
+                    pos2(screen.width() * 0.08, top),
+                    pos2(screen.width() * 0.92, screen.bottom() - 12.0),
+                );
+                p.rect_filled(r, 8.0, PANEL);
+                p.text(r.min + vec2(16.0, 10.0), Align2::LEFT_TOP, title, FontId::proportional(24.0), ACCENT);
+                p.galley(r.min + vec2(16.0, 44.0), g, Color32::WHITE);
+            }
+        }
+        Mode::Attract => {
+            let pulse = 0.75 + 0.25 * (ctx.input(|i| i.time) * 2.0).sin() as f32;
+            p.text(
+                screen.center() - vec2(0.0, 30.0),
+                Align2::CENTER_CENTER,
+                w.touch_to_explore,
+                FontId::proportional(56.0),
+                Color32::WHITE.gamma_multiply(pulse),
+            );
+            if let Some(s) = v.countdown {
+                let text = w.countdown.replace("{s}", &format!("{:.0}", s.ceil()));
+                p.text(
+                    screen.center() + vec2(0.0, 50.0),
+                    Align2::CENTER_CENTER,
+                    text,
+                    FontId::proportional(24.0),
+                    Color32::from_gray(160),
+                );
+            }
+        }
+    }
+    for b in buttons(v.mode) {
+        let r = rect_of(b, screen);
+        p.rect_filled(r, 10.0, Color32::from_gray(48));
+        // The bundled fonts have no arrows: draw them.
+        let arrow = |at: Pos2, size: f32, left: bool| {
+            let d = if left { -size } else { size };
+            let pts = vec![at + vec2(d, 0.0), at + vec2(-d * 0.6, -size), at + vec2(-d * 0.6, size)];
+            p.add(egui::Shape::convex_polygon(pts, Color32::WHITE, Stroke::NONE));
+        };
+        match b.kind {
+            ButtonKind::Previous => arrow(r.center(), 14.0, true),
+            ButtonKind::Next => arrow(r.center(), 14.0, false),
+            ButtonKind::Back => arrow(pos2(r.left() + 20.0, r.center().y), 8.0, true),
+            _ => {}
+        }
+        let shift = if b.kind == ButtonKind::Back { vec2(10.0, 0.0) } else { egui::Vec2::ZERO };
+        p.text(
+            r.center() + shift,
+            Align2::CENTER_CENTER,
+            label(b.kind),
+            FontId::proportional(if b.kind == ButtonKind::Language { 20.0 } else { 26.0 }),
+            Color32::WHITE,
+        );
+    }
+}
+
+/// An overlay drawing at the view's aspect: full height, centred (the vertical field of view is
+/// the view's, so the drawing lines up with the model whatever the window's width).
+pub fn overlay(p: &egui::Painter, screen: Rect, t: &TextureHandle, alpha: f32) {
+    let s = t.size_vec2();
+    let h = screen.height();
+    let r = Rect::from_center_size(screen.center(), vec2(h * s.x / s.y.max(1.0), h));
+    p.image(t.id(), r, Rect::from_min_max(Pos2::ZERO, pos2(1.0, 1.0)), Color32::WHITE.gamma_multiply(alpha));
+}
+
+/// A title and text panel at the bottom of the projection.
+pub fn caption(p: &egui::Painter, screen: Rect, title: &str, text: Option<&str>, alpha: f32) {
+    let width = screen.width() * 0.6;
+    let g = text.map(|t| wrapped(p, t, 20.0, width, Color32::WHITE.gamma_multiply(alpha)));
+    let h = 54.0 + g.as_ref().map_or(0.0, |g| g.size().y + 8.0);
+    let r = Rect::from_min_size(pos2(24.0, screen.bottom() - h - 24.0), vec2(width + 32.0, h));
+    p.rect_filled(r, 8.0, PANEL.gamma_multiply(alpha));
+    p.text(
+        r.min + vec2(16.0, 10.0),
+        Align2::LEFT_TOP,
+        title,
+        FontId::proportional(30.0),
+        ACCENT.gamma_multiply(alpha),
+    );
+    if let Some(g) = g {
+        p.galley(r.min + vec2(16.0, 50.0), g, Color32::WHITE);
+    }
+}
+
+/// The suggestion inset as drawn.
+pub struct Inset {
+    /// The inset's render.
+    pub id: egui::TextureId,
+    /// Its aspect ratio.
+    pub aspect: f32,
+    /// Opacity (fade in/out).
+    pub alpha: f32,
+    /// Size factor (zooms in as it appears).
+    pub scale: f32,
+    /// The proposed node's title.
+    pub title: String,
+}
+
+/// The suggestion inset (thesis 11.4.2) in the top-right corner.
+pub fn inset(p: &egui::Painter, screen: Rect, inset: &Inset, hint: &str) {
+    let Inset { id, aspect, alpha, scale, ref title } = *inset;
+    let w = screen.width() * 0.3 * scale;
+    let size = vec2(w, w / aspect);
+    let r = Rect::from_min_size(pos2(screen.right() - size.x - 24.0, 24.0), size);
+    p.rect_filled(r.expand(3.0), 4.0, ACCENT.gamma_multiply(alpha));
+    p.image(id, r, Rect::from_min_max(Pos2::ZERO, pos2(1.0, 1.0)), Color32::WHITE.gamma_multiply(alpha));
+    p.text(
+        pos2(r.left(), r.bottom() + 8.0),
+        Align2::LEFT_TOP,
+        title,
+        FontId::proportional(22.0),
+        Color32::WHITE.gamma_multiply(alpha),
+    );
+    p.text(
+        pos2(r.left(), r.bottom() + 36.0),
+        Align2::LEFT_TOP,
+        hint,
+        FontId::proportional(16.0),
+        Color32::from_gray(200).gamma_multiply(alpha),
+    );
+}
+
+/// The radial menu of nearby views: thumbnails clockwise from the top, the pointed one
+/// highlighted.
+pub fn radial(
+    p: &egui::Painter,
+    screen: Rect,
+    items: &[(Option<TextureHandle>, String)],
+    pointed: Option<usize>,
+) {
+    let c = screen.center();
+    let radius = screen.height() * 0.3;
+    p.circle_filled(c, 10.0, Color32::from_white_alpha(160));
+    if items.is_empty() {
+        p.circle_stroke(c, radius * 0.4, Stroke::new(2.0, Color32::from_white_alpha(120)));
+        return;
+    }
+    let n = items.len();
+    for (i, (thumb, title)) in items.iter().enumerate() {
+        let a = i as f32 * std::f32::consts::TAU / n as f32;
+        let at = c + radius * vec2(a.sin(), -a.cos());
+        let size = vec2(screen.height() * 0.22, screen.height() * 0.22 * 9.0 / 16.0);
+        let r = Rect::from_center_size(at, size);
+        let on = pointed == Some(i);
+        p.line_segment(
+            [c, at],
+            Stroke::new(if on { 3.0 } else { 1.0 }, Color32::from_white_alpha(if on { 220 } else { 90 })),
+        );
+        p.rect_filled(
+            r.expand(if on { 5.0 } else { 2.0 }),
+            4.0,
+            if on { ACCENT } else { Color32::from_gray(200) },
+        );
+        match thumb {
+            Some(t) => {
+                p.image(t.id(), r, Rect::from_min_max(Pos2::ZERO, pos2(1.0, 1.0)), Color32::WHITE);
+            }
+            None => {
+                p.rect_filled(r, 0.0, Color32::from_gray(40));
+            }
+        }
+        let tr = Rect::from_center_size(pos2(at.x, r.bottom() + 18.0), vec2(size.x + 20.0, 26.0));
+        p.rect_filled(tr, 4.0, PANEL);
+        p.text(
+            tr.center(),
+            Align2::CENTER_CENTER,
+            title,
+            FontId::proportional(17.0),
+            if on { ACCENT } else { Color32::WHITE },
+        );
+    }
+}
+
+/// A small banner at the top of the projection (e.g. during the attract loop).
+pub fn banner(p: &egui::Painter, screen: Rect, text: &str) {
+    let g = p.layout_no_wrap(text.to_string(), FontId::proportional(22.0), Color32::WHITE);
+    let r = Rect::from_center_size(pos2(screen.center().x, 36.0), g.size() + vec2(28.0, 14.0));
+    p.rect_filled(r, 14.0, PANEL);
+    p.galley(r.min + vec2(14.0, 7.0), g, Color32::WHITE);
+}

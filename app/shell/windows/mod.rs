@@ -1,0 +1,799 @@
+//! The kiosk: a projection window (the model, overlays, the suggestion inset, the radial menu,
+//! titles) and a controller window (touch: help, back, language, gallery, captions), driven by
+//! the core's [`Kiosk`] at a fixed 60 Hz clock, with narration through kira.
+//!
+//! The same touch events that drive the windows are what `--record` writes and what `--session`
+//! plays back, so a recorded visit replays through the real windows, and through `kiosk replay`.
+
+pub mod audio;
+pub mod config;
+mod draw;
+mod paint;
+mod surface;
+
+use crate::MappedStore;
+use anyhow::Context as _;
+use config::Config;
+use kiosk_core::camera::{Camera, GoTo, SceneRef};
+use kiosk_core::gesture::{TouchEvent, TouchKind};
+use kiosk_core::graph::InfoGraph;
+use kiosk_core::kiosk::{Kiosk, KioskEffect, KioskSettings, Mode, ModelRef};
+use kiosk_core::recommend::RecState;
+use kiosk_core::replay::{ReplaySettings, initial_camera};
+use kiosk_core::session::Session;
+use kiosk_core::{Cut, CutParams};
+use kiosk_render::{Blit, Gpu, RenderSettings, Renderer, wgpu};
+use paint::Painter;
+use std::collections::HashSet;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+use surface::{Canvas, GpuWindow};
+use winit::application::ApplicationHandler;
+use winit::event::{ElementState, MouseButton, TouchPhase, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::window::{Fullscreen, Window, WindowId};
+
+/// The id of the mouse's left button as a finger.
+const MOUSE_FINGER: i64 = 1 << 40;
+/// Size of the suggestion inset's render (pixels).
+const INSET_SIZE: (u32, u32) = (384, 216);
+/// Phases of the inset (seconds): fade in, path animation, fade out.
+const INSET_FADE: f64 = 0.6;
+const INSET_PATH: f64 = 2.5;
+
+/// How the kiosk runs.
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    /// Configuration.
+    pub config: Config,
+    /// Ordinary windows instead of fullscreen.
+    pub windowed: bool,
+    /// Record the visitors' touches here (JSON Lines session).
+    pub record: Option<PathBuf>,
+    /// Play this session through the windows and exit when it ends.
+    pub session: Option<Session>,
+    /// Session times at which to save both windows as PNG.
+    pub screenshot_at: Vec<f64>,
+    /// Where screenshots go.
+    pub screenshot_dir: PathBuf,
+    /// Clock speed (1 = real time; larger for accelerated tests).
+    pub speed: f64,
+    /// Repeat the session until this much kiosk time has passed (soak runs).
+    pub run_for: Option<f64>,
+    /// Never open an audio device.
+    pub silent: bool,
+    /// Write the kiosk's trace here (JSON Lines, one line per 60 Hz frame).
+    pub trace: Option<PathBuf>,
+}
+
+/// One exhibit of the gallery.
+pub struct Exhibit {
+    /// Its directory.
+    pub dir: PathBuf,
+    /// Its model.
+    pub store: MappedStore,
+    /// Its story.
+    pub graph: Option<InfoGraph>,
+}
+
+impl Exhibit {
+    /// The title shown in the gallery: the first node's title, else the directory name.
+    pub fn title(&self, lang: &str) -> String {
+        self.graph
+            .as_ref()
+            .and_then(|g| g.nodes.first())
+            .and_then(|n| n.title.get(lang, self.default_lang()))
+            .map(str::to_string)
+            .unwrap_or_else(|| self.dir.file_name().map_or("?".into(), |n| n.to_string_lossy().into_owned()))
+    }
+
+    fn default_lang(&self) -> &str {
+        self.graph.as_ref().map_or("en", |g| g.default_lang.as_str())
+    }
+}
+
+/// Loads the exhibits of the configuration; a broken one is logged and left out, the rest
+/// shows. Errors only when none loads.
+pub fn load_exhibits(config: &Config) -> anyhow::Result<Vec<Exhibit>> {
+    let mut out = Vec::new();
+    for dir in config.exhibit_dirs()? {
+        let store = match crate::exhibit::open_model(&dir) {
+            Ok(s) => s,
+            Err(e) => {
+                tracing::error!("exhibit {}: {e:#}; left out of the gallery", dir.display());
+                continue;
+            }
+        };
+        let graph = match crate::exhibit::open_graph(&dir) {
+            Ok(Some((g, problems))) => {
+                for p in problems {
+                    tracing::warn!("{}: {p}", dir.join("graph.xml").display());
+                }
+                Some(g)
+            }
+            Ok(None) => None,
+            Err(e) => {
+                tracing::error!("exhibit {}: {e:#}; shown without its story", dir.display());
+                None
+            }
+        };
+        tracing::info!("exhibit {}: {} samples", dir.display(), store.header().leaf_point_count);
+        out.push(Exhibit { dir, store, graph });
+    }
+    anyhow::ensure!(!out.is_empty(), "no exhibit could be loaded from {}", config.content.display());
+    Ok(out)
+}
+
+/// The kiosk's behaviour settings from the configuration, for a projection of `size` pixels and
+/// a controller of aspect `controller_aspect`.
+pub fn kiosk_settings(config: &Config, size: (u32, u32), controller_aspect: f64, seed: u64) -> KioskSettings {
+    let mut explore = ReplaySettings { size_px: size, fov_y: config.fov_y(), seed, ..Default::default() };
+    explore.cut.tolerance_px = config.tolerance_px;
+    explore.gestures.aspect = controller_aspect;
+    KioskSettings {
+        attract_after_secs: config.attract_after_secs,
+        reset_after_secs: config.reset_after_secs,
+        languages: config.languages.clone(),
+        explore,
+        ..Default::default()
+    }
+}
+
+/// Runs the kiosk until the window closes (or the session ends).
+pub fn run(opts: RunOptions) -> anyhow::Result<()> {
+    let exhibits = load_exhibits(&opts.config)?;
+    let event_loop = EventLoop::new().context("cannot open the display (is DISPLAY set?)")?;
+    event_loop.set_control_flow(ControlFlow::Poll);
+    let mut app = App { opts, exhibits, state: None, error: None };
+    event_loop.run_app(&mut app)?;
+    match app.error {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+struct App {
+    opts: RunOptions,
+    exhibits: Vec<Exhibit>,
+    state: Option<Running>,
+    error: Option<anyhow::Error>,
+}
+
+/// Everything that exists once the windows are open.
+struct Running {
+    gpu: Gpu,
+    projection: GpuWindow,
+    controller: GpuWindow,
+    renderer: Renderer,
+    blit: Blit,
+    proj_painter: Painter,
+    ctrl_painter: Painter,
+    inset: Canvas,
+    inset_id: egui::TextureId,
+    kiosk: Kiosk,
+    narrator: audio::Narrator,
+    start: Instant,
+    /// Kiosk time of the last 60 Hz step.
+    sim_t: f64,
+    /// Frames stepped.
+    steps: u64,
+    /// Live input waiting for its step.
+    queue: Vec<TouchEvent>,
+    /// Session playback: next event, and the time offset of the current loop.
+    next_event: usize,
+    loop_offset: f64,
+    screenshots: Vec<f64>,
+    record: Option<std::io::BufWriter<std::fs::File>>,
+    trace: Option<std::io::BufWriter<std::fs::File>>,
+    cursor: (f64, f64),
+    mouse_down: bool,
+    gallery_cut: Option<(usize, Cut)>,
+    render_settings: RenderSettings,
+    reported: HashSet<String>,
+    rss_warm: Option<u64>,
+}
+
+fn rss_kb() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    s.lines().find_map(|l| l.strip_prefix("VmRSS:")).and_then(|v| v.split_whitespace().next()?.parse().ok())
+}
+
+impl App {
+    fn open(&mut self, el: &ActiveEventLoop) -> anyhow::Result<Running> {
+        let cfg = &self.opts.config;
+        let monitors: Vec<_> = el.available_monitors().collect();
+        let attrs = |title: &str, w: &config::WindowConfig, x: i32| {
+            let mut a = Window::default_attributes().with_title(title);
+            if self.opts.windowed || !w.fullscreen {
+                a = a
+                    .with_inner_size(winit::dpi::PhysicalSize::new(w.size[0], w.size[1]))
+                    .with_position(winit::dpi::PhysicalPosition::new(x, 0));
+            } else {
+                let m = monitors.get(w.monitor).or_else(|| {
+                    tracing::warn!(
+                        "{title}: monitor {} not found ({} present); using the first",
+                        w.monitor,
+                        monitors.len()
+                    );
+                    monitors.first()
+                });
+                if let Some(m) = m {
+                    // Without a window manager, fullscreen moves but does not resize: say both.
+                    a = a
+                        .with_fullscreen(Some(Fullscreen::Borderless(Some(m.clone()))))
+                        .with_position(m.position())
+                        .with_inner_size(m.size())
+                        .with_decorations(false);
+                }
+            }
+            a
+        };
+        let pw = Arc::new(el.create_window(attrs("IsoKiosk — projection", &cfg.projection, 0))?);
+        let cw = Arc::new(el.create_window(attrs(
+            "IsoKiosk — controller",
+            &cfg.controller,
+            cfg.projection.size[0] as i32 + 8,
+        ))?);
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+            backends: wgpu::Backends::VULKAN | wgpu::Backends::GL,
+            // wgpu validates every call itself; the Vulkan layers stay off in the kiosk (the render
+            // tests run with them), set WGPU_VALIDATION=1 to turn them on.
+            flags: wgpu::InstanceFlags::empty().with_env(),
+            ..wgpu::InstanceDescriptor::new_without_display_handle()
+        });
+        let ps = instance.create_surface(pw.clone())?;
+        let cs = instance.create_surface(cw.clone())?;
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: Some(&ps),
+            apply_limit_buckets: false,
+        }))
+        .context("no GPU adapter for the windows")?;
+        let gpu = Gpu::from_adapter(&adapter)?;
+        tracing::info!("GPU: {} ({:?})", gpu.adapter.name, gpu.adapter.backend);
+        let projection = GpuWindow::new(&gpu, pw, ps, &adapter, cfg.projection.rotation)?;
+        let controller = GpuWindow::new(&gpu, cw, cs, &adapter, cfg.controller.rotation)?;
+        let format = projection.format();
+        let renderer = Renderer::new(&gpu, format);
+        let blit = Blit::new(&gpu, format);
+        let mut proj_painter = Painter::new(&gpu, format.remove_srgb_suffix());
+        let ctrl_painter = Painter::new(&gpu, controller.format().remove_srgb_suffix());
+        let inset = Canvas::new(&gpu, format, INSET_SIZE, "inset");
+        let inset_id = proj_painter.register(&gpu, &inset.view);
+        let ctrl = controller.canvas.size;
+        let seed = self
+            .opts
+            .session
+            .as_ref()
+            .and_then(|s| s.header.as_ref())
+            .and_then(|h| h.seed)
+            .unwrap_or(cfg.seed);
+        let settings =
+            kiosk_settings(cfg, projection.canvas.size, f64::from(ctrl.0) / f64::from(ctrl.1.max(1)), seed);
+        let kiosk = Kiosk::new(settings, self.exhibits.len(), 0.0);
+        let narrator = audio::Narrator::new(cfg.volume, self.opts.silent);
+        let record = match &self.opts.record {
+            Some(p) => {
+                let f = std::fs::File::create(p).with_context(|| format!("cannot create {}", p.display()))?;
+                let mut w = std::io::BufWriter::new(f);
+                writeln!(
+                    w,
+                    "{{\"session\":1,\"exhibit\":{:?},\"seed\":{seed}}}",
+                    cfg.content.display().to_string()
+                )?;
+                w.flush()?;
+                Some(w)
+            }
+            None => None,
+        };
+        let trace = match &self.opts.trace {
+            Some(p) => Some(std::io::BufWriter::new(
+                std::fs::File::create(p).with_context(|| format!("cannot create {}", p.display()))?,
+            )),
+            None => None,
+        };
+        if !self.opts.screenshot_at.is_empty() {
+            std::fs::create_dir_all(&self.opts.screenshot_dir)
+                .with_context(|| format!("cannot create {}", self.opts.screenshot_dir.display()))?;
+        }
+        let mut screenshots = self.opts.screenshot_at.clone();
+        screenshots.sort_by(f64::total_cmp);
+        gpu.check()?;
+        Ok(Running {
+            gpu,
+            projection,
+            controller,
+            renderer,
+            blit,
+            proj_painter,
+            ctrl_painter,
+            inset,
+            inset_id,
+            kiosk,
+            narrator,
+            start: Instant::now(),
+            sim_t: 0.0,
+            steps: 0,
+            queue: Vec::new(),
+            next_event: 0,
+            loop_offset: 0.0,
+            screenshots,
+            record,
+            trace,
+            cursor: (0.5, 0.5),
+            mouse_down: false,
+            gallery_cut: None,
+            render_settings: RenderSettings::default(),
+            reported: HashSet::new(),
+            rss_warm: None,
+        })
+    }
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, el: &ActiveEventLoop) {
+        if self.state.is_some() {
+            return;
+        }
+        match self.open(el) {
+            Ok(s) => self.state = Some(s),
+            Err(e) => {
+                self.error = Some(e);
+                el.exit();
+            }
+        }
+    }
+
+    fn window_event(&mut self, el: &ActiveEventLoop, id: WindowId, event: WindowEvent) {
+        let Some(s) = self.state.as_mut() else { return };
+        let on_controller = id == s.controller.window.id();
+        match event {
+            WindowEvent::CloseRequested => el.exit(),
+            WindowEvent::Resized(size) => {
+                let w = if on_controller { &mut s.controller } else { &mut s.projection };
+                w.resize(&s.gpu, (size.width, size.height));
+            }
+            WindowEvent::KeyboardInput { event, .. } => {
+                // Ctrl+Q or Escape in windowed mode closes the kiosk (technicians, not visitors).
+                if event.state == ElementState::Pressed
+                    && let winit::keyboard::Key::Character(c) = &event.logical_key
+                    && c.as_str() == "q"
+                {
+                    el.exit();
+                }
+                if self.opts.windowed
+                    && event.logical_key == winit::keyboard::Key::Named(winit::keyboard::NamedKey::Escape)
+                {
+                    el.exit();
+                }
+            }
+            _ if !on_controller || self.opts.session.is_some() => {}
+            WindowEvent::Touch(t) => {
+                let (x, y) = s.normalised(t.location.x, t.location.y);
+                let ev = match t.phase {
+                    TouchPhase::Started => TouchKind::Down,
+                    TouchPhase::Moved => TouchKind::Move,
+                    TouchPhase::Ended => TouchKind::Up,
+                    TouchPhase::Cancelled => TouchKind::Cancel,
+                };
+                s.input(TouchEvent { t: s.clock(self.opts.speed), ev, id: t.id as i64, x, y });
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                s.cursor = s.normalised(position.x, position.y);
+                if s.mouse_down {
+                    let (x, y) = s.cursor;
+                    s.input(TouchEvent {
+                        t: s.clock(self.opts.speed),
+                        ev: TouchKind::Move,
+                        id: MOUSE_FINGER,
+                        x,
+                        y,
+                    });
+                }
+            }
+            WindowEvent::MouseInput { state, button, .. } => {
+                let (x, y) = s.cursor;
+                let t = s.clock(self.opts.speed);
+                match (button, state) {
+                    (MouseButton::Left, ElementState::Pressed) => {
+                        s.mouse_down = true;
+                        s.input(TouchEvent { t, ev: TouchKind::Down, id: MOUSE_FINGER, x, y });
+                    }
+                    (MouseButton::Left, ElementState::Released) if s.mouse_down => {
+                        s.mouse_down = false;
+                        s.input(TouchEvent { t, ev: TouchKind::Up, id: MOUSE_FINGER, x, y });
+                    }
+                    (MouseButton::Right, ElementState::Pressed) => s.kiosk.menu_button(t, x, y),
+                    _ => {}
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn about_to_wait(&mut self, el: &ActiveEventLoop) {
+        let Some(s) = self.state.as_mut() else { return };
+        match s.tick(&self.opts, &self.exhibits) {
+            Ok(true) => {}
+            Ok(false) => el.exit(),
+            Err(e) => {
+                self.error = Some(e);
+                el.exit();
+            }
+        }
+    }
+}
+
+impl Running {
+    /// Kiosk time now.
+    fn clock(&self, speed: f64) -> f64 {
+        self.start.elapsed().as_secs_f64() * speed.max(1e-3)
+    }
+
+    fn normalised(&self, x: f64, y: f64) -> (f64, f64) {
+        let size = self.controller.window.inner_size();
+        let u = (x / f64::from(size.width.max(1))).clamp(0.0, 1.0);
+        let v = (y / f64::from(size.height.max(1))).clamp(0.0, 1.0);
+        self.controller.to_canvas(u, v)
+    }
+
+    fn input(&mut self, e: TouchEvent) {
+        if let Some(w) = self.record.as_mut() {
+            let line = serde_json::to_string(&e).unwrap_or_default();
+            if writeln!(w, "{line}").and_then(|()| w.flush()).is_err()
+                && self.reported.insert("record".into())
+            {
+                tracing::error!("cannot write the session record; recording stops");
+            }
+        }
+        self.queue.push(e);
+    }
+
+    /// Steps the core up to the clock, renders, and takes due screenshots. `false` = done.
+    fn tick(&mut self, opts: &RunOptions, exhibits: &[Exhibit]) -> anyhow::Result<bool> {
+        let dt = 1.0 / self.kiosk.settings.explore.fps;
+        let now = self.clock(opts.speed);
+        let end = opts.session.as_ref().map(|s| match opts.run_for {
+            Some(r) => r,
+            None => s.duration() + 1.0,
+        });
+        let models: Vec<ModelRef<'_, memmap2::Mmap>> =
+            exhibits.iter().map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref() }).collect();
+        let mut stepped = false;
+        while self.sim_t + dt <= now {
+            let t = self.steps as f64 * dt;
+            if let Some(session) = &opts.session {
+                loop {
+                    if self.next_event >= session.events.len() {
+                        if opts.run_for.is_some() && t >= self.loop_offset + session.duration() + 2.0 {
+                            // Soak: the next visitor arrives.
+                            self.loop_offset = t;
+                            self.next_event = 0;
+                            continue;
+                        }
+                        break;
+                    }
+                    let e = session.events[self.next_event];
+                    if e.t + self.loop_offset > t + 1e-9 {
+                        break;
+                    }
+                    self.kiosk.touch(&TouchEvent { t: e.t + self.loop_offset, ..e });
+                    self.next_event += 1;
+                }
+            }
+            let mut live = std::mem::take(&mut self.queue);
+            live.retain(|e| {
+                if e.t <= t + 1e-9 {
+                    self.kiosk.touch(&TouchEvent { t: e.t.min(t), ..*e });
+                    false
+                } else {
+                    true
+                }
+            });
+            self.queue = live;
+            let frame = self.kiosk.step(&models, t);
+            for fx in &frame.effects {
+                self.effect(fx, exhibits);
+            }
+            if let Some(w) = self.trace.as_mut() {
+                writeln!(w, "{}", serde_json::to_string(&frame).unwrap_or_default())?;
+            }
+            self.sim_t = t;
+            self.steps += 1;
+            stepped = true;
+            if self.rss_warm.is_none() && t >= 60.0 && opts.run_for.is_some() {
+                self.rss_warm = rss_kb();
+                tracing::info!("soak: RSS after warm-up {} kB", self.rss_warm.unwrap_or(0));
+            }
+            if self.screenshots.first().is_some_and(|&at| t + 1e-9 >= at) {
+                let at = self.screenshots.remove(0);
+                self.render(exhibits, t)?;
+                self.capture(&opts.screenshot_dir, at)?;
+            }
+            if end.is_some_and(|e| t >= e) {
+                break;
+            }
+        }
+        if stepped {
+            self.render(exhibits, self.sim_t)?;
+        }
+        if let Some(e) = end
+            && self.sim_t >= e
+        {
+            if !self.screenshots.is_empty() {
+                tracing::warn!("screenshots after the session's end were not taken: {:?}", self.screenshots);
+            }
+            if let (Some(warm), Some(end)) = (self.rss_warm, rss_kb()) {
+                let change = 100.0 * (end as f64 - warm as f64) / warm.max(1) as f64;
+                println!(
+                    "soak: {:.0} s of kiosk time in {:.0} s, RSS after warm-up {warm} kB, at the end {end} kB ({change:+.1} %)",
+                    self.sim_t,
+                    self.start.elapsed().as_secs_f64()
+                );
+            }
+            if let Some(w) = self.trace.as_mut() {
+                w.flush()?;
+            }
+            return Ok(false);
+        }
+        Ok(true)
+    }
+
+    fn effect(&mut self, fx: &KioskEffect, exhibits: &[Exhibit]) {
+        match fx {
+            KioskEffect::PlayNarration { model, node, lang } => {
+                let Some(ex) = exhibits.get(*model) else { return };
+                let Some(g) = ex.graph.as_ref() else { return };
+                match g.nodes.get(*node).and_then(|n| n.narration.get(lang, &g.default_lang)) {
+                    Some(file) => self.narrator.play(&ex.dir.join(file)),
+                    None => self.narrator.stop(),
+                }
+            }
+            KioskEffect::StopNarration => self.narrator.stop(),
+        }
+    }
+
+    fn report(&mut self, what: &str, e: &dyn std::fmt::Display) {
+        if self.reported.insert(format!("{what}: {e}")) {
+            tracing::error!("{what}: {e}");
+        }
+    }
+
+    /// Renders both windows' canvases and presents them.
+    fn render(&mut self, exhibits: &[Exhibit], t: f64) -> anyhow::Result<()> {
+        self.render_projection(exhibits, t);
+        self.render_controller(exhibits, t);
+        if let Err(e) = self.gpu.check() {
+            self.report("GPU", &e);
+        }
+        if let Err(e) = self.projection.present(&self.gpu, &self.blit) {
+            self.report("projection window", &e);
+        }
+        if let Err(e) = self.controller.present(&self.gpu, &self.blit) {
+            self.report("controller window", &e);
+        }
+        Ok(())
+    }
+
+    fn render_projection(&mut self, exhibits: &[Exhibit], t: f64) {
+        let size = self.projection.canvas.size;
+        let model = self.kiosk.model();
+        let Some(ex) = exhibits.get(model) else { return };
+        let store = &ex.store;
+        let lang = self.kiosk.lang().to_string();
+        // The model: the exploration's camera and cut, or the gallery's slow turntable.
+        let camera;
+        let nodes;
+        match self.kiosk.explorer() {
+            Some(x) => {
+                camera = x.camera();
+                nodes = camera
+                    .view_params(store, size)
+                    .map(|v| x.cut().visible_nodes(store, &v))
+                    .unwrap_or_default();
+            }
+            None => {
+                let fov = self.kiosk.settings.explore.fov_y;
+                let c0 = initial_camera(store, fov, self.kiosk.settings.explore.up);
+                let angle = 0.15 * t;
+                let (sin, cos) = angle.sin_cos();
+                let d = c0.eye - c0.target;
+                let rotated = glam::DVec3::new(d.x * cos + d.z * sin, d.y, -d.x * sin + d.z * cos);
+                camera = Camera { eye: c0.target + rotated, ..c0 };
+                if self.gallery_cut.as_ref().is_none_or(|(m, _)| *m != model) {
+                    self.gallery_cut = Some((model, Cut::root(store)));
+                }
+                let params = CutParams {
+                    tolerance_px: self.kiosk.settings.explore.cut.tolerance_px,
+                    ..CutParams::default()
+                };
+                nodes = match (self.gallery_cut.as_mut(), camera.view_params(store, size)) {
+                    (Some((_, cut)), Some(v)) => {
+                        cut.update(store, &v, &params);
+                        cut.visible_nodes(store, &v)
+                    }
+                    _ => Vec::new(),
+                };
+            }
+        }
+        let canvas = &self.projection.canvas;
+        if let Err(e) =
+            self.renderer.render(&self.gpu, store, &nodes, &camera, &canvas.view, size, &self.render_settings)
+        {
+            self.report("render", &e);
+        }
+        // The suggestion inset: fade in, the path from here to the proposed view, hold, fade out.
+        let mut inset = None;
+        let rec = self.kiosk.explorer().and_then(|x| x.recommender()).map(|r| r.state);
+        if let (Some(RecState::Propose { node, since }), Some(g), Some(x)) =
+            (rec, ex.graph.as_ref(), self.kiosk.explorer())
+        {
+            let age = t - since;
+            let total = self.kiosk.settings.explore.recommend.propose_secs;
+            let alpha = (age / INSET_FADE).min((total - age) / INSET_FADE).clamp(0.0, 1.0);
+            let path = GoTo {
+                from: x.camera(),
+                to: g.nodes[node].view,
+                start: since + INSET_FADE,
+                duration: INSET_PATH,
+            };
+            let cam = path.camera_at(t, SceneRef { store, cut: x.cut() }, x.min_distance());
+            let inset_nodes = x.cut().nodes().to_vec();
+            if let Err(e) = self.renderer.render(
+                &self.gpu,
+                store,
+                &inset_nodes,
+                &cam,
+                &self.inset.view,
+                INSET_SIZE,
+                &self.render_settings,
+            ) {
+                self.report("inset render", &e);
+            }
+            let title =
+                g.nodes[node].title.get(&lang, &g.default_lang).unwrap_or(&g.nodes[node].id).to_string();
+            inset = Some(draw::Inset {
+                id: self.inset_id,
+                aspect: INSET_SIZE.0 as f32 / INSET_SIZE.1 as f32,
+                alpha: alpha as f32,
+                scale: (0.8 + 0.2 * alpha) as f32,
+                title,
+            });
+        }
+        // Overlay and caption of the displayed node.
+        let mut overlay = None;
+        let mut caption = None;
+        if let (Some(RecState::Display { node, since, .. }), Some(g)) = (rec, ex.graph.as_ref()) {
+            let n = &g.nodes[node];
+            let alpha = ((t - since) / 0.5).clamp(0.0, 1.0) as f32;
+            if let Some(file) = n.overlay.get(&lang, &g.default_lang) {
+                overlay = self.proj_painter.image(&ex.dir.join(file)).map(|t| (t, alpha));
+            }
+            caption = Some((
+                n.title.get(&lang, &g.default_lang).unwrap_or(&n.id).to_string(),
+                n.text.get(&lang, &g.default_lang).map(str::to_string),
+                alpha,
+            ));
+        }
+        // The radial menu with thumbnails.
+        let mut radial = None;
+        if let (Some(menu), Some(g)) = (self.kiosk.explorer().and_then(|x| x.menu()), ex.graph.as_ref()) {
+            let pointed =
+                menu.pointing.and_then(|a| kiosk_core::recommend::slot_for_angle(a, menu.candidates.len()));
+            let candidates = menu.candidates.clone();
+            let mut items = Vec::new();
+            for i in candidates {
+                let n = &g.nodes[i];
+                let thumb = self.thumbnail(ex, i);
+                items.push((thumb, n.title.get(&lang, &g.default_lang).unwrap_or(&n.id).to_string()));
+            }
+            radial = Some((items, pointed));
+        }
+        let mode = self.kiosk.mode();
+        let title = ex.title(&lang);
+        let words = draw::words(&lang);
+        let view = self.projection.canvas.ui_view.clone();
+        self.proj_painter.paint(&self.gpu, &view, size, None, t, |ctx| {
+            let screen = ctx.content_rect();
+            let p = ctx.layer_painter(egui::LayerId::background());
+            if let Some((tex, alpha)) = &overlay {
+                draw::overlay(&p, screen, tex, *alpha);
+            }
+            match &caption {
+                Some((title, text, alpha)) => draw::caption(&p, screen, title, text.as_deref(), *alpha),
+                None => draw::caption(&p, screen, &title, None, 0.85),
+            }
+            if let Some(inset) = &inset {
+                draw::inset(&p, screen, inset, words.inset_hint);
+            }
+            if let Some((items, pointed)) = &radial {
+                draw::radial(&p, screen, items, *pointed);
+            }
+            if mode == Mode::Attract {
+                draw::banner(&p, screen, words.touch_to_explore);
+            }
+        });
+    }
+
+    /// A node's thumbnail: its file, or (missing file) a render of its view, cached.
+    fn thumbnail(&mut self, ex: &Exhibit, node: usize) -> Option<egui::TextureHandle> {
+        let g = ex.graph.as_ref()?;
+        let n = g.nodes.get(node)?;
+        let key = match &n.thumbnail {
+            Some(f) => ex.dir.join(f),
+            None => ex.dir.join(format!("#render-{}", n.id)),
+        };
+        if self.proj_painter.has_image(&key) || (n.thumbnail.is_some() && key.exists()) {
+            return self.proj_painter.image(&key);
+        }
+        let size = (256, 144);
+        let img = n.view.view_params(&ex.store, size).and_then(|v| {
+            let mut cut = Cut::root(&ex.store);
+            cut.update(
+                &ex.store,
+                &v,
+                &CutParams { tolerance_px: 2.0, max_changes: usize::MAX, ..CutParams::default() },
+            );
+            let nodes = cut.visible_nodes(&ex.store, &v);
+            self.renderer
+                .render_image(&self.gpu, &ex.store, &nodes, &n.view, size, &self.render_settings)
+                .ok()
+        });
+        match img {
+            Some((img, _)) => Some(self.proj_painter.put_image(&key, &img)),
+            None => {
+                self.report("thumbnail", &format!("node {} of {}", n.id, ex.dir.display()));
+                None
+            }
+        }
+    }
+
+    fn render_controller(&mut self, exhibits: &[Exhibit], t: f64) {
+        let size = self.controller.canvas.size;
+        let lang = self.kiosk.lang().to_string();
+        let model = self.kiosk.model();
+        let ex = exhibits.get(model);
+        let title = ex.map(|e| e.title(&lang)).unwrap_or_default();
+        let thumb = ex.and_then(|e| {
+            let g = e.graph.as_ref()?;
+            let f = g.nodes.first()?.thumbnail.as_ref()?;
+            self.ctrl_painter.image(&e.dir.join(f))
+        });
+        let caption = self.kiosk.narrating().and_then(|(m, node)| {
+            let g = exhibits.get(m)?.graph.as_ref()?;
+            let n = g.nodes.get(node)?;
+            Some((
+                n.title.get(&lang, &g.default_lang).unwrap_or(&n.id).to_string(),
+                n.text.get(&lang, &g.default_lang).unwrap_or("").to_string(),
+            ))
+        });
+        let view = draw::ControllerView {
+            mode: self.kiosk.mode(),
+            lang: &lang,
+            languages: &self.kiosk.settings.languages,
+            help: self.kiosk.help(),
+            countdown: self.kiosk.countdown(),
+            card: (&title, thumb.as_ref()),
+            page: (model, exhibits.len()),
+            caption: caption.as_ref().map(|(a, b)| (a.as_str(), b.as_str())),
+            zoom_bar: self.kiosk.settings.explore.gestures.zoom_bar_width,
+        };
+        let target = self.controller.canvas.ui_view.clone();
+        self.ctrl_painter
+            .paint(&self.gpu, &target, size, Some(wgpu::Color::BLACK), t, |ctx| draw::controller(ctx, &view));
+    }
+
+    /// Saves both canvases as PNG.
+    fn capture(&mut self, dir: &Path, at: f64) -> anyhow::Result<()> {
+        for (name, w) in [("projection", &self.projection), ("controller", &self.controller)] {
+            let img = kiosk_render::read_back(&self.gpu, &w.canvas.texture, w.canvas.size)?;
+            let path = dir.join(format!("{name}-{at:.1}.png"));
+            img.save(&path).with_context(|| format!("cannot write {}", path.display()))?;
+            tracing::info!("screenshot {}", path.display());
+        }
+        Ok(())
+    }
+}
