@@ -5,3 +5,4 @@ mod common;
 mod render;
 mod scene;
 mod story;
+mod windows;

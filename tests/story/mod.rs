@@ -2,6 +2,7 @@
 
 mod engine;
 mod sessions;
+mod visit;
 
 use kiosk::MappedStore;
 pub use kiosk::synthetic::node;

@@ -166,6 +166,10 @@ impl Script {
         }
         self
     }
+    /// One finger: down at `from`, slide to `to` over `secs`, up (a swipe or a drag).
+    pub fn swipe(self, id: i64, from: (f64, f64), to: (f64, f64), secs: f64) -> Self {
+        self.down(id, from.0, from.1).drag(&[(id, from, to)], secs).up(id, to.0, to.1)
+    }
     /// One finger: down at the centre, push to `offset` quickly, hold for `secs` (joystick), up.
     pub fn joystick(self, id: i64, offset: (f64, f64), secs: f64) -> Self {
         let end = (0.5 + offset.0, 0.5 + offset.1);

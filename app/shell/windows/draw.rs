@@ -322,6 +322,13 @@ pub fn inset(p: &egui::Painter, screen: Rect, inset: &Inset, hint: &str) {
     );
 }
 
+/// Where the radial menu puts candidate `i` of `n`: clockwise from the top around the centre.
+pub fn slot_rect(screen: Rect, i: usize, n: usize) -> Rect {
+    let a = i as f32 * std::f32::consts::TAU / n.max(1) as f32;
+    let at = screen.center() + screen.height() * 0.3 * vec2(a.sin(), -a.cos());
+    Rect::from_center_size(at, vec2(screen.height() * 0.22, screen.height() * 0.22 * 9.0 / 16.0))
+}
+
 /// The radial menu of nearby views: thumbnails clockwise from the top, the pointed one
 /// highlighted.
 pub fn radial(
@@ -339,10 +346,8 @@ pub fn radial(
     }
     let n = items.len();
     for (i, (thumb, title)) in items.iter().enumerate() {
-        let a = i as f32 * std::f32::consts::TAU / n as f32;
-        let at = c + radius * vec2(a.sin(), -a.cos());
-        let size = vec2(screen.height() * 0.22, screen.height() * 0.22 * 9.0 / 16.0);
-        let r = Rect::from_center_size(at, size);
+        let r = slot_rect(screen, i, n);
+        let (at, size) = (r.center(), r.size());
         let on = pointed == Some(i);
         p.line_segment(
             [c, at],

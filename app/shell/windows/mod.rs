@@ -35,6 +35,14 @@ use winit::event::{ElementState, MouseButton, TouchPhase, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::window::{Fullscreen, Window, WindowId};
 
+/// Where the projection shows radial-menu candidate `i` of `n` in a canvas of `size` pixels:
+/// `[x0, y0, x1, y1]` (for tests that look at screenshots).
+pub fn radial_slot_px(size: (u32, u32), i: usize, n: usize) -> [f32; 4] {
+    let screen = egui::Rect::from_min_size(egui::Pos2::ZERO, egui::vec2(size.0 as f32, size.1 as f32));
+    let r = draw::slot_rect(screen, i, n);
+    [r.min.x, r.min.y, r.max.x, r.max.y]
+}
+
 /// The id of the mouse's left button as a finger.
 const MOUSE_FINGER: i64 = 1 << 40;
 /// Size of the suggestion inset's render (pixels).

@@ -1,0 +1,215 @@
+//! The kiosk's behaviour on the demo exhibits, through the core's own replay of the kiosk (the
+//! same path the windows take): gallery swipes and taps, buttons, the attract loop and the reset,
+//! with an accelerated (simulated) clock.
+
+use kiosk::MappedStore;
+use kiosk_core::graph::InfoGraph;
+use kiosk_core::kiosk::{KioskEffect, KioskFrame, KioskSettings, Mode, ModelRef, run_session};
+use kiosk_core::session::Script;
+use std::path::Path;
+
+struct Demo {
+    models: Vec<(MappedStore, InfoGraph)>,
+}
+
+fn demo() -> Demo {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("content");
+    let models = ["demosthenes", "nefertiti"]
+        .iter()
+        .map(|name| {
+            let dir = root.join(name);
+            let store = kiosk::exhibit::open_model(&dir).expect("model");
+            let (graph, problems) = kiosk::exhibit::open_graph(&dir).expect("graph").expect("graph.xml");
+            assert!(problems.is_empty(), "{problems:?}");
+            (store, graph)
+        })
+        .collect();
+    Demo { models }
+}
+
+impl Demo {
+    fn run(&self, script: &Script, settings: &KioskSettings, extra: f64) -> Vec<KioskFrame> {
+        let refs: Vec<ModelRef<'_, memmap2::Mmap>> =
+            self.models.iter().map(|(s, g)| ModelRef { store: s, graph: Some(g) }).collect();
+        run_session(&refs, &script.session(), settings, extra)
+    }
+}
+
+fn fast() -> KioskSettings {
+    KioskSettings { attract_after_secs: 20.0, reset_after_secs: 400.0, ..KioskSettings::default() }
+}
+
+/// Modes in order, without repeats.
+fn modes(frames: &[KioskFrame]) -> Vec<Mode> {
+    let mut v = Vec::new();
+    for f in frames {
+        if v.last() != Some(&f.mode) {
+            v.push(f.mode);
+        }
+    }
+    v
+}
+
+fn at(frames: &[KioskFrame], t: f64) -> &KioskFrame {
+    frames.iter().find(|f| f.t + 1e-9 >= t).expect("frame at t")
+}
+
+#[test]
+fn gallery_swipes_and_taps() {
+    let d = demo();
+    // Swipe left (next), swipe right (previous), swipe left again, tap the card: explore model 1.
+    let script = Script::new()
+        .wait(0.5)
+        .swipe(5, (0.8, 0.5), (0.3, 0.52), 0.3)
+        .wait(0.5)
+        .swipe(5, (0.3, 0.5), (0.8, 0.5), 0.3)
+        .wait(0.5)
+        .swipe(5, (0.7, 0.5), (0.2, 0.5), 0.3)
+        .wait(0.5)
+        .down(9, 0.5, 0.5)
+        .wait(0.1)
+        .up(9, 0.5, 0.5)
+        .wait(1.0)
+        .cancel(99);
+    let frames = d.run(&script, &fast(), 0.5);
+    let models: Vec<usize> = frames.iter().map(|f| f.model).collect();
+    let mut seen = models.clone();
+    seen.dedup();
+    assert_eq!(seen, [0, 1, 0, 1], "gallery pages");
+    assert_eq!(modes(&frames), [Mode::Gallery, Mode::Explore]);
+    let last = frames.last().expect("frames");
+    assert_eq!(last.model, 1);
+    assert!(last.explore.is_some(), "exploring the Nefertiti bust");
+}
+
+#[test]
+fn buttons_language_help_back() {
+    let d = demo();
+    let tap = |s: Script, x: f64, y: f64| s.down(1, x, y).wait(0.05).up(1, x, y).wait(0.5);
+    let mut s = Script::new().wait(0.2);
+    s = tap(s, 0.5, 0.86); // Explore
+    s = tap(s, 0.9, 0.07); // Help
+    s = tap(s, 0.74, 0.07); // Language → it
+    let s_help = s.clone();
+    s = tap(s, 0.08, 0.07); // Back
+    let frames = d.run(&s.cancel(99), &fast(), 0.5);
+    let mid = at(&frames, s_help.session().duration() + 0.2);
+    assert_eq!(mid.mode, Mode::Explore);
+    assert!(mid.help, "help shown");
+    assert_eq!(mid.lang, "it");
+    let last = frames.last().expect("frames");
+    assert_eq!(last.mode, Mode::Gallery, "back to the gallery");
+    assert!(!last.help, "help closes with the gallery");
+    assert_eq!(last.lang, "it", "the language stays until the reset");
+}
+
+#[test]
+fn a_drag_starting_on_a_button_is_not_a_press_and_a_drag_elsewhere_moves_the_camera() {
+    let d = demo();
+    let s = Script::new()
+        .wait(0.2)
+        .down(1, 0.5, 0.86)
+        .wait(0.05)
+        .up(1, 0.5, 0.86)
+        .wait(0.5)
+        // Slides off the back button before lifting: no press.
+        .swipe(5, (0.08, 0.07), (0.5, 0.5), 0.4)
+        .wait(0.3)
+        .joystick(2, (0.2, 0.0), 1.5)
+        .wait(0.5)
+        .cancel(99);
+    let frames = d.run(&s, &fast(), 0.2);
+    assert_eq!(
+        modes(&frames),
+        [Mode::Gallery, Mode::Explore],
+        "still exploring: the slide off the button is no press"
+    );
+    let eyes: Vec<[f64; 3]> = frames.iter().filter_map(|f| f.explore.as_ref().map(|e| e.eye)).collect();
+    assert!(eyes.first() != eyes.last(), "the joystick moved the camera");
+}
+
+#[test]
+fn attract_loop_tours_the_model_and_a_touch_takes_over_then_the_reset() {
+    let d = demo();
+    let settings =
+        KioskSettings { attract_after_secs: 20.0, reset_after_secs: 300.0, ..KioskSettings::default() };
+    // Explore, switch to Italian, then nobody touches for 200 s; a touch; then nobody for 400 s.
+    let s = Script::new()
+        .wait(0.2)
+        .down(1, 0.5, 0.86)
+        .wait(0.05)
+        .up(1, 0.5, 0.86)
+        .wait(0.5)
+        .down(1, 0.74, 0.07)
+        .wait(0.05)
+        .up(1, 0.74, 0.07)
+        .wait(200.0)
+        .down(3, 0.5, 0.5)
+        .wait(0.1)
+        .up(3, 0.5, 0.5)
+        .wait(1.0)
+        .cancel(99);
+    let touch_t = 0.2 + 0.05 + 0.5 + 0.05 + 200.0;
+    // The last input is the script's closing event (a cancel counts as input too).
+    let last_input = s.session().duration();
+    let frames = d.run(&s, &settings, 400.0);
+    assert_eq!(
+        modes(&frames),
+        [Mode::Gallery, Mode::Explore, Mode::Attract, Mode::Explore, Mode::Attract, Mode::Gallery]
+    );
+    let first_attract = frames.iter().find(|f| f.mode == Mode::Attract).expect("attract");
+    assert!((first_attract.t - (0.8 + 20.0)).abs() < 0.1, "attract after 20 s idle: {}", first_attract.t);
+    // The tour: the engine goes to and displays several different nodes on its own.
+    let mut shown: Vec<String> = Vec::new();
+    for f in frames.iter().filter(|f| f.t < touch_t) {
+        if let Some(o) = f.explore.as_ref().and_then(|e| e.overlay.clone())
+            && shown.last() != Some(&o)
+        {
+            shown.push(o);
+        }
+    }
+    let mut distinct = shown.clone();
+    distinct.sort();
+    distinct.dedup();
+    assert!(distinct.len() >= 3, "the tour shows several nodes: {shown:?}");
+    assert!(
+        frames.iter().filter(|f| f.t < touch_t).any(|f| f
+            .effects
+            .iter()
+            .any(|e| matches!(e, KioskEffect::PlayNarration { lang, .. } if lang == "it"))),
+        "narration in the visitor's language"
+    );
+    // The touch takes over: exploring again, and the autopilot is off.
+    let after = at(&frames, touch_t + 0.5);
+    assert_eq!(after.mode, Mode::Explore);
+    // The countdown runs during the attract loop and the reset happens on time.
+    let reset = frames.iter().rev().find(|f| f.mode != Mode::Gallery).expect("before reset");
+    assert!((reset.t - (last_input + 300.0)).abs() < 0.05, "reset 300 s after the last touch: {}", reset.t);
+    assert!(reset.countdown.is_some_and(|c| c < 0.1), "{:?}", reset.countdown);
+    let last = frames.last().expect("frames");
+    assert_eq!(
+        (last.mode, last.model, last.lang.as_str()),
+        (Mode::Gallery, 0, "en"),
+        "reset to gallery, model and language"
+    );
+    assert!(
+        frames.iter().any(|f| f.effects.contains(&KioskEffect::StopNarration) && f.t >= touch_t),
+        "narration stops"
+    );
+}
+
+#[test]
+fn same_session_same_seed_same_frames() {
+    let d = demo();
+    let s = Script::new()
+        .wait(0.2)
+        .down(1, 0.5, 0.86)
+        .wait(0.05)
+        .up(1, 0.5, 0.86)
+        .joystick(2, (0.1, 0.05), 2.0)
+        .wait(40.0)
+        .cancel(99);
+    let a = serde_json::to_string(&d.run(&s, &fast(), 1.0)).expect("json");
+    let b = serde_json::to_string(&d.run(&s, &fast(), 1.0)).expect("json");
+    assert_eq!(a, b);
+}

@@ -1,0 +1,228 @@
+//! End to end: the real `kiosk` binary under Xvfb (and lavapipe), driven by a touch session
+//! through its real windows, with screenshots of both windows checked pixel by pixel and the
+//! kiosk's trace telling what it was doing at those moments.
+
+use image::RgbaImage;
+use kiosk_core::session::Script;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+struct Run {
+    dir: tempfile::TempDir,
+    trace: Vec<Value>,
+    stderr: String,
+}
+
+impl Run {
+    fn shot(&self, window: &str, t: f64) -> RgbaImage {
+        let p = self.dir.path().join(format!("{window}-{t:.1}.png"));
+        image::open(&p).unwrap_or_else(|e| panic!("{}: {e}\n{}", p.display(), self.stderr)).to_rgba8()
+    }
+
+    fn frame(&self, t: f64) -> &Value {
+        self.trace
+            .iter()
+            .find(|f| f["t"].as_f64().is_some_and(|ft| ft + 1e-9 >= t))
+            .unwrap_or_else(|| panic!("no frame at {t}"))
+    }
+}
+
+fn content() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("content")
+}
+
+/// Runs the kiosk on a session with screenshots; fails loudly when Xvfb or the GPU is missing.
+fn run(script: &Script, shots: &[f64], config: &str, speed: f64) -> Run {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let session = dir.path().join("session.jsonl");
+    std::fs::write(&session, script.session().to_jsonl()).expect("write session");
+    let cfg = dir.path().join("kiosk.toml");
+    std::fs::write(&cfg, format!("content = {:?}\n{config}", content().display().to_string()))
+        .expect("config");
+    let trace = dir.path().join("trace.jsonl");
+    let shots: Vec<String> = shots.iter().map(|t| format!("{t}")).collect();
+    let runtime = std::env::temp_dir().join("xdg-runtime-isokiosk-tests");
+    std::fs::create_dir_all(&runtime).expect("runtime dir");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700)).expect("chmod");
+    }
+    let out = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 2200x800x24 -nolisten tcp"])
+        .arg(env!("CARGO_BIN_EXE_kiosk"))
+        .arg("--config")
+        .arg(&cfg)
+        .args(["--windowed", "--silent", "--speed", &speed.to_string()])
+        .arg("--session")
+        .arg(&session)
+        .arg("--trace")
+        .arg(&trace)
+        .arg("--screenshot-at")
+        .arg(shots.join(","))
+        .arg("--screenshot-dir")
+        .arg(dir.path())
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .env("RUST_LOG", "info,wgpu_core=warn,wgpu_hal=warn,naga=warn")
+        .output()
+        .expect("xvfb-run must be installed (.ci/setup installs xvfb and xauth)");
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "kiosk failed: {:?}\n{stderr}", out.status);
+    assert!(!stderr.contains("ERROR"), "the kiosk logged errors:\n{stderr}");
+    let trace = std::fs::read_to_string(&trace)
+        .expect("trace")
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("trace line is JSON"))
+        .collect();
+    Run { dir, trace, stderr }
+}
+
+fn luma(p: &image::Rgba<u8>) -> f64 {
+    0.299 * f64::from(p[0]) + 0.587 * f64::from(p[1]) + 0.114 * f64::from(p[2])
+}
+
+/// Fraction of the pixels of a region brighter than `level`.
+fn bright(img: &RgbaImage, (x0, y0, x1, y1): (u32, u32, u32, u32), level: f64) -> f64 {
+    let mut n = 0;
+    let mut hit = 0;
+    for y in y0..y1.min(img.height()) {
+        for x in x0..x1.min(img.width()) {
+            n += 1;
+            hit += usize::from(luma(img.get_pixel(x, y)) > level);
+        }
+    }
+    hit as f64 / n.max(1) as f64
+}
+
+/// Of the overlay's nearly opaque pixels, the fraction whose screenshot pixel has its colour
+/// (the drawings are amber: red well above blue).
+fn overlay_match(shot: &RgbaImage, overlay: &RgbaImage) -> f64 {
+    let (mut n, mut hit) = (0, 0);
+    for (x, y, p) in overlay.enumerate_pixels() {
+        if p[3] >= 200 && x < shot.width() && y < shot.height() {
+            n += 1;
+            let s = shot.get_pixel(x, y);
+            hit += usize::from(i32::from(s[0]) - i32::from(s[2]) > 90);
+        }
+    }
+    assert!(n > 1000, "the overlay has opaque strokes");
+    hit as f64 / n as f64
+}
+
+/// Mean absolute difference (0–255) between a region of the screenshot and an image scaled to it.
+fn region_difference(shot: &RgbaImage, rect: [f32; 4], img: &RgbaImage) -> f64 {
+    let (x0, y0) = (rect[0].ceil() as u32, rect[1].ceil() as u32);
+    let (x1, y1) = (rect[2].floor() as u32, rect[3].floor() as u32);
+    let scaled = image::imageops::resize(img, x1 - x0, y1 - y0, image::imageops::FilterType::Triangle);
+    let mut sum = 0.0;
+    let mut n = 0.0;
+    for (x, y, p) in scaled.enumerate_pixels() {
+        let s = shot.get_pixel(x0 + x, y0 + y);
+        for c in 0..3 {
+            sum += (f64::from(s[c]) - f64::from(p[c])).abs();
+            n += 1.0;
+        }
+    }
+    sum / n
+}
+
+#[test]
+fn a_visit_through_the_real_windows() {
+    // Explore (tap), look, long press (radial menu), point up and release (go-to the first
+    // candidate), watch its overlay.
+    let script = Script::new()
+        .wait(0.3)
+        .down(1, 0.5, 0.86)
+        .wait(0.05)
+        .up(1, 0.5, 0.86)
+        .wait(1.2)
+        .down(2, 0.5, 0.5)
+        .wait(1.3)
+        .drag(&[(2, (0.5, 0.5), (0.5, 0.3))], 0.2)
+        .up(2, 0.5, 0.3)
+        .wait(4.0)
+        .cancel(99);
+    let run = run(&script, &[0.2, 1.5, 2.7, 6.8], "", 1.0);
+    // Gallery: the model turns on the projection, the controller shows the gallery card.
+    assert_eq!(run.frame(0.2)["mode"], "gallery");
+    let gallery_proj = run.shot("projection", 0.2);
+    assert_eq!(gallery_proj.dimensions(), (1280, 720));
+    assert!(bright(&gallery_proj, (440, 100, 840, 620), 150.0) > 0.25, "model on the projection");
+    // Exploring: the model on the projection; on the controller nothing but help and buttons.
+    assert_eq!(run.frame(1.5)["mode"], "explore");
+    let proj = run.shot("projection", 1.5);
+    let ctrl = run.shot("controller", 1.5);
+    assert!(bright(&proj, (440, 100, 840, 620), 150.0) > 0.25, "model visible while exploring");
+    assert!(
+        bright(&ctrl, (0, 0, ctrl.width(), ctrl.height()), 150.0) < 0.03,
+        "no model content on the controller"
+    );
+    let gallery_ctrl = run.shot("controller", 0.2);
+    assert!(
+        bright(&gallery_ctrl, (160, 85, 640, 355), 150.0) > 0.1,
+        "the gallery card shows the model's picture (so the check above can see a model)"
+    );
+    // Long press: the radial menu with the candidates' thumbnails where the menu puts them.
+    let f = run.frame(2.7);
+    let candidates: Vec<String> = f["explore"]["menu"]["candidates"]
+        .as_array()
+        .unwrap_or_else(|| panic!("menu open at 2.7 s: {f}"))
+        .iter()
+        .map(|c| c.as_str().expect("id").to_string())
+        .collect();
+    assert!(!candidates.is_empty(), "candidates near the start view");
+    let menu = run.shot("projection", 2.7);
+    for (i, id) in candidates.iter().enumerate() {
+        let thumb = image::open(content().join(format!("demosthenes/thumbs/{id}.png")))
+            .expect("thumbnail")
+            .to_rgba8();
+        let rect = kiosk::windows::radial_slot_px((1280, 720), i, candidates.len());
+        let in_menu = region_difference(&menu, rect, &thumb);
+        let before = region_difference(&proj, rect, &thumb);
+        assert!(
+            in_menu < 20.0 && in_menu < before * 0.6,
+            "thumbnail of {id}: {in_menu:.1} vs {before:.1} without the menu"
+        );
+    }
+    // Released upwards: the first candidate is reached and its overlay shows.
+    let f = run.frame(6.8);
+    assert_eq!(f["explore"]["overlay"], Value::String(candidates[0].clone()), "{f}");
+    let overlay = image::open(content().join(format!("demosthenes/overlays/{}-en.png", candidates[0])))
+        .expect("overlay")
+        .to_rgba8();
+    let shown = overlay_match(&run.shot("projection", 6.8), &overlay);
+    let not_shown = overlay_match(&proj, &overlay);
+    assert!(
+        shown > 0.7 && not_shown < 0.1,
+        "overlay drawn: {shown:.2} of its strokes (before: {not_shown:.2})"
+    );
+    // The narration's captions on the controller (the node's text, in the bottom band).
+    assert_eq!(f["explore"]["recommender"], "display");
+    let band = (70, 400, 730, 470);
+    let captions = bright(&run.shot("controller", 6.8), band, 150.0);
+    assert!(captions > 0.02 && captions > 4.0 * bright(&ctrl, band, 150.0), "captions: {captions:.3}");
+}
+
+#[test]
+fn attract_loop_and_reset_with_an_accelerated_clock() {
+    let script = Script::new().wait(0.3).down(1, 0.5, 0.86).wait(0.05).up(1, 0.5, 0.86).wait(11.0).cancel(99);
+    let config = "attract_after_secs = 3.0\nreset_after_secs = 8.0\n";
+    let run = run(&script, &[1.0, 5.0, 10.0], config, 3.0);
+    assert_eq!(run.frame(1.0)["mode"], "explore");
+    let f = run.frame(5.0);
+    assert_eq!(f["mode"], "attract", "{f}");
+    let countdown = f["countdown"].as_f64().expect("countdown");
+    assert!((countdown - (0.35 + 8.0 - 5.0)).abs() < 0.05, "countdown {countdown}");
+    assert_eq!(run.frame(10.0)["mode"], "gallery");
+    // The controller calls the visitor during the attract loop: big text in the middle.
+    let attract = run.shot("controller", 5.0);
+    let exploring = run.shot("controller", 1.0);
+    let middle = (150, 150, 650, 330);
+    assert!(
+        bright(&attract, middle, 150.0) > 2.0 * bright(&exploring, middle, 150.0) + 0.005,
+        "\"touch to explore\" shown"
+    );
+    // Back in the gallery after the reset: the card with the first model's picture.
+    assert!(bright(&run.shot("controller", 10.0), (160, 85, 640, 355), 150.0) > 0.1);
+}
