@@ -45,6 +45,9 @@ struct RunArgs {
     /// With --session: replay it over and over until this much kiosk time has passed (soak).
     #[arg(long, value_name = "SECS", requires = "session")]
     run_for: Option<f64>,
+    /// With --run-for: kiosk time after which the memory is taken as the reference.
+    #[arg(long, default_value_t = 300.0, value_name = "SECS")]
+    warmup: f64,
     /// No audio device, even if there is one.
     #[arg(long)]
     silent: bool,
@@ -84,6 +87,7 @@ fn run_kiosk(args: RunArgs) -> anyhow::Result<()> {
         speed: args.speed,
         run_for: args.run_for,
         silent: args.silent,
+        warmup: args.warmup,
         trace: args.trace,
     })
 }

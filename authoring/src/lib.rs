@@ -16,6 +16,9 @@ use kiosk_render::{Gpu, RenderSettings, Renderer};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+pub mod preview;
+pub mod ui;
+
 /// Aspect ratio of the projection the views are authored for.
 pub const VIEW_ASPECT: f64 = 16.0 / 9.0;
 /// Size of rendered thumbnails.
@@ -251,6 +254,24 @@ impl Project {
             if weight > 0.0 {
                 g.edges.push(Edge { from: f, to: t, weight });
             }
+            Ok(())
+        })
+    }
+
+    /// Moves a node's view to `camera` (its thumbnail is not re-rendered).
+    pub fn set_view(&mut self, id: &str, camera: Camera) -> anyhow::Result<()> {
+        anyhow::ensure!(camera.is_finite(), "the camera is not finite");
+        let i = self.index(id)?;
+        self.edit(|g| {
+            g.nodes[i].view = camera;
+            Ok(())
+        })
+    }
+
+    /// Replaces the whole graph (e.g. restoring an autosave), as one undoable edit.
+    pub fn replace_graph(&mut self, graph: InfoGraph) -> anyhow::Result<()> {
+        self.edit(|g| {
+            *g = graph;
             Ok(())
         })
     }

@@ -32,13 +32,21 @@ fn content() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("content")
 }
 
-/// Runs the kiosk on a session with screenshots; fails loudly when Xvfb or the GPU is missing.
+/// Runs the kiosk on a session with screenshots; fails loudly when Xvfb or the GPU is missing,
+/// or when the kiosk logs an error.
 fn run(script: &Script, shots: &[f64], config: &str, speed: f64) -> Run {
+    let run = run_in(&content(), script, shots, config, speed);
+    assert!(!run.stderr.contains("ERROR"), "the kiosk logged errors:\n{}", run.stderr);
+    run
+}
+
+/// Runs the kiosk on the exhibits of `content`.
+fn run_in(content: &Path, script: &Script, shots: &[f64], config: &str, speed: f64) -> Run {
     let dir = tempfile::tempdir().expect("temp dir");
     let session = dir.path().join("session.jsonl");
     std::fs::write(&session, script.session().to_jsonl()).expect("write session");
     let cfg = dir.path().join("kiosk.toml");
-    std::fs::write(&cfg, format!("content = {:?}\n{config}", content().display().to_string()))
+    std::fs::write(&cfg, format!("content = {:?}\n{config}", content.display().to_string()))
         .expect("config");
     let trace = dir.path().join("trace.jsonl");
     let shots: Vec<String> = shots.iter().map(|t| format!("{t}")).collect();
@@ -69,7 +77,6 @@ fn run(script: &Script, shots: &[f64], config: &str, speed: f64) -> Run {
         .expect("xvfb-run must be installed (.ci/setup installs xvfb and xauth)");
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     assert!(out.status.success(), "kiosk failed: {:?}\n{stderr}", out.status);
-    assert!(!stderr.contains("ERROR"), "the kiosk logged errors:\n{stderr}");
     let trace = std::fs::read_to_string(&trace)
         .expect("trace")
         .lines()
@@ -225,4 +232,50 @@ fn attract_loop_and_reset_with_an_accelerated_clock() {
     );
     // Back in the gallery after the reset: the card with the first model's picture.
     assert!(bright(&run.shot("controller", 10.0), (160, 85, 640, 355), 150.0) > 0.1);
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).expect("mkdir");
+    for e in std::fs::read_dir(from).expect("read dir") {
+        let e = e.expect("entry");
+        let target = to.join(e.file_name());
+        if e.path().is_dir() {
+            copy_dir(&e.path(), &target);
+        } else {
+            std::fs::copy(e.path(), &target).expect("copy");
+        }
+    }
+}
+
+#[test]
+fn broken_content_is_logged_once_and_the_rest_keeps_working() {
+    // A copy of the Demosthenes exhibit with the intro's overlay truncated and its narration
+    // missing, and a second exhibit whose model is garbage.
+    let content = tempfile::tempdir().expect("temp dir");
+    let good = content.path().join("a-demosthenes");
+    copy_dir(&self::content().join("demosthenes"), &good);
+    let overlay = good.join("overlays/intro-en.png");
+    let bytes = std::fs::read(&overlay).expect("overlay");
+    std::fs::write(&overlay, &bytes[..bytes.len() / 3]).expect("truncate overlay");
+    std::fs::remove_file(good.join("audio/intro-en.wav")).expect("remove narration");
+    let broken = content.path().join("b-broken");
+    std::fs::create_dir_all(&broken).expect("mkdir");
+    std::fs::write(broken.join("model.obj"), "v 1 2 three\nf 1 2 9\n").expect("garbage model");
+    // Explore, then go to the intro twice through the radial menu (its overlay and narration
+    // are asked for twice; each problem must be logged once).
+    let menu_to_top =
+        |s: Script| s.down(2, 0.5, 0.5).wait(1.0).drag(&[(2, (0.5, 0.5), (0.5, 0.3))], 0.2).up(2, 0.5, 0.3);
+    let mut script = Script::new().wait(0.3).down(1, 0.5, 0.86).wait(0.05).up(1, 0.5, 0.86).wait(0.5);
+    script = menu_to_top(script).wait(4.0).joystick(3, (0.2, 0.0), 1.0).wait(0.5);
+    script = menu_to_top(script).wait(4.0).cancel(99);
+    let run = run_in(content.path(), &script, &[6.0], "", 1.0);
+    let count = |needle: &str| run.stderr.lines().filter(|l| l.contains(needle)).count();
+    assert_eq!(count("b-broken"), 1, "the broken exhibit is reported once:\n{}", run.stderr);
+    assert_eq!(count("intro-en.png"), 1, "the broken overlay is reported once:\n{}", run.stderr);
+    assert_eq!(count("intro-en.wav"), 1, "the missing narration is reported once:\n{}", run.stderr);
+    let displayed: Vec<&str> = run.trace.iter().filter_map(|f| f["explore"]["overlay"].as_str()).collect();
+    assert!(displayed.contains(&"intro"), "the intro was displayed (without its drawing)");
+    assert!(run.trace.iter().all(|f| f["model"] == 0), "the gallery holds only the good exhibit");
+    let shot = run.shot("projection", 6.0);
+    assert!(bright(&shot, (440, 100, 840, 620), 150.0) > 0.2, "the model still shows");
 }

@@ -1,7 +1,8 @@
-//! Narration with kira. Without an audio device the kiosk runs silently on kira's mock backend
-//! (same loading and playing path, no sound) and says so once in the log.
+//! Narration with kira. Without an audio device the kiosk runs silently and says so once in the
+//! log; it still decodes each narration with kira, so a broken file is reported the same way.
+//! (kira's mock backend is no substitute here: its clock only advances when driven, so every
+//! sound played on it stays in memory — a soak run showed it.)
 
-use kira::backend::mock::{MockBackend, MockBackendSettings};
 use kira::sound::static_sound::{StaticSoundData, StaticSoundHandle};
 use kira::{AudioManager, AudioManagerSettings, Decibels, DefaultBackend, Tween};
 use std::collections::HashSet;
@@ -9,9 +10,8 @@ use std::path::{Path, PathBuf};
 
 enum Manager {
     Device(Box<AudioManager<DefaultBackend>>),
-    Silent(Box<AudioManager<MockBackend>>),
-    /// Not even the mock backend started: narration is skipped.
-    None,
+    /// No device: narrations are decoded (to report broken files) and dropped.
+    Silent,
 }
 
 /// Plays one narration at a time.
@@ -41,21 +41,13 @@ impl Narrator {
             Ok(m) => Manager::Device(Box::new(m)),
             Err(e) => {
                 tracing::warn!("no audio device ({e}): narration is silent, captions still show");
-                let settings = AudioManagerSettings {
-                    backend_settings: MockBackendSettings { sample_rate: 48_000 },
-                    ..Default::default()
-                };
-                match AudioManager::<MockBackend>::new(settings) {
-                    Ok(m) => Manager::Silent(Box::new(m)),
-                    Err(()) => Manager::None,
-                }
+                Manager::Silent
             }
         };
         let db = decibels(volume);
         match &mut manager {
             Manager::Device(m) => m.main_track().set_volume(db, Tween::default()),
-            Manager::Silent(m) => m.main_track().set_volume(db, Tween::default()),
-            Manager::None => {}
+            Manager::Silent => {}
         }
         Self { manager, playing: None, reported: HashSet::new(), current: None }
     }
@@ -80,8 +72,10 @@ impl Narrator {
         };
         let handle = match &mut self.manager {
             Manager::Device(m) => m.play(data).map_err(|e| e.to_string()),
-            Manager::Silent(m) => m.play(data).map_err(|e| e.to_string()),
-            Manager::None => return,
+            Manager::Silent => {
+                self.current = Some(path.to_path_buf());
+                return;
+            }
         };
         match handle {
             Ok(h) => {

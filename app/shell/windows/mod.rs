@@ -72,6 +72,8 @@ pub struct RunOptions {
     pub run_for: Option<f64>,
     /// Never open an audio device.
     pub silent: bool,
+    /// Soak runs: kiosk time after which the RSS is taken as the reference.
+    pub warmup: f64,
     /// Write the kiosk's trace here (JSON Lines, one line per 60 Hz frame).
     pub trace: Option<PathBuf>,
 }
@@ -201,6 +203,8 @@ struct Running {
     render_settings: RenderSettings,
     reported: HashSet<String>,
     rss_warm: Option<u64>,
+    /// Frames rendered (both windows).
+    rendered: u64,
 }
 
 fn rss_kb() -> Option<u64> {
@@ -337,6 +341,7 @@ impl App {
             render_settings: RenderSettings::default(),
             reported: HashSet::new(),
             rss_warm: None,
+            rendered: 0,
         })
     }
 }
@@ -512,7 +517,7 @@ impl Running {
             self.sim_t = t;
             self.steps += 1;
             stepped = true;
-            if self.rss_warm.is_none() && t >= 60.0 && opts.run_for.is_some() {
+            if self.rss_warm.is_none() && t >= opts.warmup && opts.run_for.is_some() {
                 self.rss_warm = rss_kb();
                 tracing::info!("soak: RSS after warm-up {} kB", self.rss_warm.unwrap_or(0));
             }
@@ -556,8 +561,9 @@ impl Running {
                 let Some(ex) = exhibits.get(*model) else { return };
                 let Some(g) = ex.graph.as_ref() else { return };
                 match g.nodes.get(*node).and_then(|n| n.narration.get(lang, &g.default_lang)) {
-                    Some(file) => self.narrator.play(&ex.dir.join(file)),
-                    None => self.narrator.stop(),
+                    // A missing file was reported with the graph's problems when it loaded.
+                    Some(file) if ex.dir.join(file).exists() => self.narrator.play(&ex.dir.join(file)),
+                    _ => self.narrator.stop(),
                 }
             }
             KioskEffect::StopNarration => self.narrator.stop(),
@@ -572,6 +578,7 @@ impl Running {
 
     /// Renders both windows' canvases and presents them.
     fn render(&mut self, exhibits: &[Exhibit], t: f64) -> anyhow::Result<()> {
+        self.rendered += 1;
         self.render_projection(exhibits, t);
         self.render_controller(exhibits, t);
         if let Err(e) = self.gpu.check() {
@@ -582,6 +589,10 @@ impl Running {
         }
         if let Err(e) = self.controller.present(&self.gpu, &self.blit) {
             self.report("controller window", &e);
+        }
+        // Lets wgpu recycle what finished frames used (staging memory, dropped bind groups).
+        if let Err(e) = self.gpu.device.poll(wgpu::PollType::Poll) {
+            self.report("GPU poll", &e);
         }
         Ok(())
     }

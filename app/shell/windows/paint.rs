@@ -44,6 +44,8 @@ impl Painter {
         }
         let loaded = match image::open(path) {
             Ok(img) => Some(self.texture(&path.display().to_string(), &img.to_rgba8())),
+            // A missing file of the graph was reported with the graph's problems when it loaded.
+            Err(_) if !path.exists() => None,
             Err(e) => {
                 tracing::warn!("image {}: {e}; not shown", path.display());
                 None

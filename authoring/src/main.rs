@@ -1,0 +1,42 @@
+//! `author`: the curators' tool. `author content/demosthenes` opens an exhibit (a directory with a
+//! scan or store; its graph.xml is created on the first save).
+
+use clap::Parser;
+use std::path::PathBuf;
+
+#[derive(Parser)]
+#[command(
+    name = "author",
+    version,
+    about = "IsoKiosk authoring: build an exhibit's story without touching XML"
+)]
+struct Cli {
+    /// The exhibit directory.
+    exhibit: PathBuf,
+}
+
+fn main() -> anyhow::Result<()> {
+    tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
+            tracing_subscriber::EnvFilter::new("info,wgpu_core=warn,wgpu_hal=warn,naga=warn")
+        }))
+        .init();
+    let cli = Cli::parse();
+    let (project, problems) = kiosk_author::Project::open(&cli.exhibit)?;
+    let gpu = match kiosk::snapshot::offscreen() {
+        Ok(g) => Some(g),
+        Err(e) => {
+            tracing::error!("no GPU for the live view and thumbnails: {e:#}");
+            None
+        }
+    };
+    let mut app = kiosk_author::ui::AuthorApp::new(project, problems, gpu);
+    let options = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default()
+            .with_inner_size([1400.0, 900.0])
+            .with_title("IsoKiosk author"),
+        ..Default::default()
+    };
+    eframe::run_ui_native("IsoKiosk author", options, move |ui, _frame| app.ui(ui))
+        .map_err(|e| anyhow::anyhow!("{e}"))
+}

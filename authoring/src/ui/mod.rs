@@ -1,0 +1,864 @@
+//! The authoring tool's window (egui): the curator navigates the model with IsoCam in a live
+//! render, captures views as nodes, writes titles and texts per language, attaches overlays (PNG,
+//! or SVG rendered with resvg) and narration, paints regions of interest, sets dependencies with
+//! presets, sees the graph and the validation problems, previews the walk the engine would take
+//! and replays recorded kiosk sessions. Every action goes through [`crate::Project`], so undo,
+//! redo and atomic saving cover them; an autosave file guards against crashes.
+
+pub mod graph_view;
+
+use crate::{Project, VIEW_ASPECT, preview};
+use egui::{Color32, ColorImage, Pos2, Rect, Sense, TextureHandle, TextureOptions, vec2};
+use kiosk_core::camera::{Camera, Controller, Intent, SceneRef};
+use kiosk_core::graph::Problem;
+use kiosk_core::replay::{ControllerKind, initial_camera, make_controller};
+use kiosk_core::{Cut, CutParams};
+use kiosk_render::{Gpu, RenderSettings, Renderer};
+use rand::SeedableRng;
+use std::path::{Path, PathBuf};
+
+/// Size of the live view's render.
+pub const LIVE_SIZE: (u32, u32) = (640, 360);
+/// Size of a painted ROI mask.
+pub const MASK_SIZE: (u32, u32) = (320, 180);
+/// Seconds between autosaves of a changed graph.
+pub const AUTOSAVE_SECS: f64 = 30.0;
+
+/// What a drag on the live view does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Tool {
+    /// Moves the camera (IsoCam: drag = hover, wheel = zoom).
+    Navigate,
+    /// Paints the selected node's region of interest.
+    Paint,
+    /// Erases it.
+    Erase,
+}
+
+/// Weight presets of dependencies.
+pub const PRESETS: [(&str, f64); 3] = [("Mandatory", 1.0), ("Strong", 0.8), ("Weak", 0.2)];
+
+/// The authoring tool's state.
+pub struct AuthorApp {
+    /// The exhibit being edited.
+    pub project: Project,
+    gpu: Option<(Gpu, Renderer)>,
+    cut: Cut,
+    controller: Controller,
+    rng: rand_pcg::Pcg64,
+    live: Option<TextureHandle>,
+    live_dirty: bool,
+    /// The selected node's id.
+    pub selected: Option<String>,
+    /// The language being edited.
+    pub lang: String,
+    /// Editing buffers: new node id, title, text, overlay file, narration file, session file.
+    pub new_id: String,
+    /// Title being edited.
+    pub title: String,
+    /// Text being edited.
+    pub text: String,
+    /// Overlay file to attach (PNG or SVG).
+    pub overlay_file: String,
+    /// Narration file to attach.
+    pub narration_file: String,
+    /// Recorded session to replay.
+    pub session_file: String,
+    /// Predecessor chosen for a new dependency.
+    pub dep_from: Option<String>,
+    /// Custom weight.
+    pub custom_weight: f64,
+    /// Current tool.
+    pub tool: Tool,
+    mask: Option<image::GrayImage>,
+    mask_tex: Option<TextureHandle>,
+    overlay_preview: Option<(PathBuf, TextureHandle)>,
+    /// Messages for the curator (newest last).
+    pub log: Vec<String>,
+    /// Problems of the last validation.
+    pub problems: Vec<Problem>,
+    /// Seed of the walk preview.
+    pub walk_seed: u64,
+    /// The last walk preview.
+    pub walk: Vec<String>,
+    /// The last session preview.
+    pub replayed: Option<preview::SessionPreview>,
+    last_autosave: f64,
+    narrator: Option<kiosk::windows::audio::Narrator>,
+}
+
+/// Where autosaves go, beside the graph.
+pub fn autosave_path(dir: &Path) -> PathBuf {
+    dir.join(".graph.autosave.xml")
+}
+
+impl AuthorApp {
+    /// Opens a project; `gpu` renders the live view and thumbnails (none: no picture, still editable).
+    pub fn new(project: Project, problems: Vec<Problem>, gpu: Option<(Gpu, Renderer)>) -> Self {
+        let store = &project.store;
+        let cam = initial_camera(store, 0.8, glam::DVec3::Y);
+        let mut cut = Cut::root(store);
+        if let Some(v) = cam.view_params(store, LIVE_SIZE) {
+            cut.update(store, &v, &CutParams { max_changes: usize::MAX, ..CutParams::default() });
+        }
+        let diag = f64::from(store.bbox().diagonal());
+        let controller = make_controller(
+            SceneRef { store, cut: &cut },
+            cam,
+            ControllerKind::IsoCam,
+            0.01 * diag,
+            glam::DVec3::Y,
+        );
+        let lang = project.graph.default_lang.clone();
+        let mut log: Vec<String> = problems.iter().map(|p| format!("on open: {p}")).collect();
+        if autosave_path(project.dir()).exists() {
+            log.push(
+                "an autosave from an unsaved session exists: \"Restore autosave\" brings it back".into(),
+            );
+        }
+        Self {
+            project,
+            gpu,
+            cut,
+            controller,
+            rng: rand_pcg::Pcg64::seed_from_u64(0),
+            live: None,
+            live_dirty: true,
+            selected: None,
+            lang,
+            new_id: String::new(),
+            title: String::new(),
+            text: String::new(),
+            overlay_file: String::new(),
+            narration_file: String::new(),
+            session_file: String::new(),
+            dep_from: None,
+            custom_weight: 0.5,
+            tool: Tool::Navigate,
+            mask: None,
+            mask_tex: None,
+            overlay_preview: None,
+            log,
+            problems,
+            walk_seed: 1,
+            walk: Vec::new(),
+            replayed: None,
+            last_autosave: 0.0,
+            narrator: None,
+        }
+    }
+
+    /// The camera of the live view.
+    pub fn camera(&self) -> Camera {
+        self.controller.camera()
+    }
+
+    fn say(&mut self, msg: impl Into<String>) {
+        let msg = msg.into();
+        tracing::info!("{msg}");
+        self.log.push(msg);
+        if self.log.len() > 200 {
+            self.log.remove(0);
+        }
+    }
+
+    fn report<T>(&mut self, what: &str, r: anyhow::Result<T>) -> Option<T> {
+        match r {
+            Ok(v) => Some(v),
+            Err(e) => {
+                self.say(format!("{what}: {e:#}"));
+                None
+            }
+        }
+    }
+
+    /// Selects a node (or none) and loads its texts into the editors.
+    pub fn select(&mut self, id: Option<String>) {
+        self.selected = id;
+        self.mask = None;
+        self.mask_tex = None;
+        self.overlay_preview = None;
+        self.load_texts();
+    }
+
+    fn load_texts(&mut self) {
+        let g = &self.project.graph;
+        let node = self.selected.as_deref().and_then(|id| g.index_of(id)).map(|i| &g.nodes[i]);
+        self.title = node.and_then(|n| n.title.0.get(&self.lang).cloned()).unwrap_or_default();
+        self.text = node.and_then(|n| n.text.0.get(&self.lang).cloned()).unwrap_or_default();
+    }
+
+    /// Moves the live camera (the IsoCam controller keeps it off the surface).
+    pub fn set_camera(&mut self, cam: Camera) {
+        let scene = SceneRef { store: &self.project.store, cut: &self.cut };
+        self.controller.set_camera(scene, cam);
+        self.update_cut();
+    }
+
+    /// Applies a navigation intent to the live camera.
+    pub fn navigate(&mut self, intent: &Intent) {
+        let scene = SceneRef { store: &self.project.store, cut: &self.cut };
+        self.controller.apply(scene, intent, &mut self.rng);
+        self.update_cut();
+    }
+
+    fn update_cut(&mut self) {
+        let store = &self.project.store;
+        if let Some(v) = self.controller.camera().view_params(store, LIVE_SIZE) {
+            self.cut.update(store, &v, &CutParams { max_changes: usize::MAX, ..CutParams::default() });
+        }
+        self.live_dirty = true;
+    }
+
+    /// Captures the live view as a node (with the id typed, or a fresh one) and selects it.
+    pub fn capture(&mut self) {
+        let id = (!self.new_id.trim().is_empty()).then(|| self.new_id.trim().to_string());
+        let cam = self.camera();
+        let gpu = self.gpu.as_mut().map(|(g, r)| (&*g, r));
+        let r = self.project.capture(cam, id.as_deref(), gpu);
+        if let Some(id) = self.report("capture", r) {
+            self.say(format!("captured the view as '{id}'"));
+            self.new_id.clear();
+            self.select(Some(id));
+        }
+    }
+
+    /// Attaches `self.overlay_file` to the selected node in the current language; an SVG is
+    /// rendered at the view's size first.
+    pub fn attach_overlay(&mut self) {
+        let Some(id) = self.selected.clone() else { return };
+        let source = PathBuf::from(self.overlay_file.trim());
+        let is_svg = source.extension().is_some_and(|e| e.eq_ignore_ascii_case("svg"));
+        let r = if is_svg {
+            svg_to_png(&source).and_then(|png| {
+                let tmp = tempfile::Builder::new().suffix(".png").tempfile()?;
+                png.save(tmp.path())?;
+                self.project.attach_overlay(&id, &self.lang, tmp.path())
+            })
+        } else {
+            self.project.attach_overlay(&id, &self.lang, &source)
+        };
+        if let Some(warning) = self.report("attach overlay", r) {
+            self.say(format!("overlay attached to '{id}' ({})", self.lang));
+            if let Some(w) = warning {
+                self.say(format!("warning: {w}"));
+            }
+            self.overlay_preview = None;
+        }
+    }
+
+    /// Copies `self.narration_file` into `audio/` and attaches it in the current language.
+    pub fn attach_narration(&mut self) {
+        let Some(id) = self.selected.clone() else { return };
+        let source = PathBuf::from(self.narration_file.trim());
+        let ext = source.extension().and_then(|e| e.to_str()).unwrap_or("wav").to_ascii_lowercase();
+        let rel = format!("audio/{id}-{}.{ext}", self.lang);
+        let dest = self.project.dir().join(&rel);
+        let r = std::fs::create_dir_all(dest.parent().unwrap_or(Path::new(".")))
+            .and_then(|()| std::fs::copy(&source, &dest))
+            .map_err(|e| anyhow::anyhow!("cannot copy {}: {e}", source.display()))
+            .and_then(|_| self.project.set_narration(&id, &self.lang, &rel));
+        if self.report("attach narration", r).is_some() {
+            self.say(format!("narration attached to '{id}' ({})", self.lang));
+        }
+    }
+
+    fn play_narration(&mut self) {
+        let Some(i) = self.selected.as_deref().and_then(|id| self.project.graph.index_of(id)) else { return };
+        let Some(rel) = self.project.graph.nodes[i].narration.0.get(&self.lang).cloned() else {
+            self.say("no narration in this language");
+            return;
+        };
+        let path = self.project.dir().join(rel);
+        self.narrator.get_or_insert_with(|| kiosk::windows::audio::Narrator::new(1.0, false)).play(&path);
+    }
+
+    /// Applies the edited title and text.
+    pub fn apply_texts(&mut self) {
+        let Some(id) = self.selected.clone() else { return };
+        let (title, text) = (self.title.clone(), self.text.clone());
+        let r = self.project.set_text(&id, &self.lang, &title, &text);
+        if self.report("texts", r).is_some() {
+            self.say(format!("texts of '{id}' ({}) set", self.lang));
+        }
+    }
+
+    /// Sets the dependency from `self.dep_from` to the selected node.
+    pub fn add_dependency(&mut self, weight: f64) {
+        let (Some(from), Some(to)) = (self.dep_from.clone(), self.selected.clone()) else {
+            self.say("pick a predecessor first");
+            return;
+        };
+        let r = self.project.set_dependency(&from, &to, weight);
+        if self.report("dependency", r).is_some() {
+            self.say(format!("{from} -> {to}: {weight}"));
+        }
+    }
+
+    /// Paints (or erases) a disc of the ROI mask at a point of the view (normalised).
+    pub fn brush(&mut self, u: f32, v: f32, radius: f32, on: bool) {
+        let mask = self.mask.get_or_insert_with(|| image::GrayImage::new(MASK_SIZE.0, MASK_SIZE.1));
+        let (cx, cy) = (u * MASK_SIZE.0 as f32, v * MASK_SIZE.1 as f32);
+        let r = radius * MASK_SIZE.1 as f32;
+        for y in ((cy - r).floor().max(0.0) as u32)..((cy + r).ceil().min(MASK_SIZE.1 as f32) as u32) {
+            for x in ((cx - r).floor().max(0.0) as u32)..((cx + r).ceil().min(MASK_SIZE.0 as f32) as u32) {
+                if (x as f32 + 0.5 - cx).hypot(y as f32 + 0.5 - cy) <= r {
+                    mask.put_pixel(x, y, image::Luma([if on { 255 } else { 0 }]));
+                }
+            }
+        }
+        self.mask_tex = None;
+    }
+
+    /// Computes the selected node's ROI from the painted mask.
+    pub fn apply_roi(&mut self) {
+        let (Some(id), Some(mask)) = (self.selected.clone(), self.mask.clone()) else {
+            self.say("paint the region over the node's view first");
+            return;
+        };
+        let r = self.project.paint_roi(&id, &mask);
+        if let Some((lo, hi)) = self.report("region of interest", r) {
+            self.say(format!("ROI of '{id}': {:.3?} – {:.3?}", lo.to_array(), hi.to_array()));
+        }
+    }
+
+    /// Saves atomically and removes the autosave.
+    pub fn save(&mut self) {
+        let r = self.project.save();
+        if self.report("save", r).is_some() {
+            let _ = std::fs::remove_file(autosave_path(self.project.dir()));
+            self.say("saved");
+        }
+    }
+
+    /// Writes the autosave file (atomically) when the graph changed since the last save.
+    pub fn autosave(&mut self) {
+        if !self.project.dirty() {
+            return;
+        }
+        let path = autosave_path(self.project.dir());
+        let tmp = path.with_extension("saving");
+        let r = std::fs::write(&tmp, self.project.graph.to_xml()).and_then(|()| std::fs::rename(&tmp, &path));
+        if let Err(e) = r {
+            self.say(format!("autosave failed: {e}"));
+        }
+    }
+
+    /// Loads the autosave as an edit (undoable).
+    pub fn restore_autosave(&mut self) {
+        let path = autosave_path(self.project.dir());
+        let r = std::fs::read_to_string(&path)
+            .map_err(anyhow::Error::from)
+            .and_then(|t| Ok(kiosk_core::graph::InfoGraph::from_xml(&t)?.0))
+            .and_then(|g| self.project.replace_graph(g));
+        if self.report("restore autosave", r).is_some() {
+            self.say("autosave restored (undo to go back)");
+            self.load_texts();
+        }
+    }
+
+    /// Runs the validation and keeps its problems.
+    pub fn validate(&mut self) {
+        self.problems = self.project.validate();
+        let n = self.problems.len();
+        self.say(if n == 0 { "no problems".to_string() } else { format!("{n} problem(s)") });
+    }
+
+    /// Simulates a visitor-less walk with the seed.
+    pub fn preview_walk(&mut self) {
+        self.walk = preview::simulate_walk(&self.project.store, &self.project.graph, self.walk_seed, 600.0);
+        self.say(format!("walk with seed {}: {}", self.walk_seed, self.walk.join(" -> ")));
+    }
+
+    /// Replays the session file against the current graph.
+    pub fn replay(&mut self) {
+        let path = PathBuf::from(self.session_file.trim());
+        let r = std::fs::read_to_string(&path)
+            .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))
+            .and_then(|t| Ok(kiosk_core::session::Session::parse(&t)?));
+        if let Some(s) = self.report("replay", r) {
+            let p = preview::replay_session(&self.project.store, &self.project.graph, &s);
+            self.say(format!("replayed {:.0} s: displayed {}", p.duration, p.displayed.join(", ")));
+            self.replayed = Some(p);
+        }
+    }
+
+    fn refresh_live(&mut self, ctx: &egui::Context) {
+        if !self.live_dirty && self.live.is_some() {
+            return;
+        }
+        self.live_dirty = false;
+        let Some((gpu, renderer)) = self.gpu.as_mut() else { return };
+        let store = &self.project.store;
+        let cam = self.controller.camera();
+        let Some(v) = cam.view_params(store, LIVE_SIZE) else { return };
+        let nodes = self.cut.visible_nodes(store, &v);
+        match renderer.render_image(gpu, store, &nodes, &cam, LIVE_SIZE, &RenderSettings::default()) {
+            Ok((img, _)) => {
+                let color = ColorImage::from_rgba_unmultiplied(
+                    [img.width() as usize, img.height() as usize],
+                    img.as_raw(),
+                );
+                match &mut self.live {
+                    Some(t) => t.set(color, TextureOptions::LINEAR),
+                    None => self.live = Some(ctx.load_texture("live view", color, TextureOptions::LINEAR)),
+                }
+            }
+            Err(e) => self.say(format!("render: {e}")),
+        }
+    }
+
+    /// The whole window.
+    pub fn ui(&mut self, ui: &mut egui::Ui) {
+        let ctx = ui.ctx().clone();
+        let now = ctx.input(|i| i.time);
+        if now - self.last_autosave >= AUTOSAVE_SECS {
+            self.last_autosave = now;
+            self.autosave();
+        }
+        let (undo, redo, save) = ctx.input_mut(|i| {
+            (
+                i.consume_key(egui::Modifiers::COMMAND, egui::Key::Z),
+                i.consume_key(egui::Modifiers::COMMAND, egui::Key::Y),
+                i.consume_key(egui::Modifiers::COMMAND, egui::Key::S),
+            )
+        });
+        if undo {
+            self.undo();
+        }
+        if redo {
+            self.redo();
+        }
+        if save {
+            self.save();
+        }
+        self.refresh_live(&ctx);
+        egui::Panel::top("toolbar").show(ui, |ui| self.toolbar(ui));
+        egui::Panel::bottom("log").resizable(true).show(ui, |ui| self.log_panel(ui));
+        egui::Panel::left("nodes").resizable(true).default_size(230.0).show(ui, |ui| self.nodes_panel(ui));
+        egui::Panel::right("node").resizable(true).default_size(360.0).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| self.node_panel(ui));
+        });
+        egui::CentralPanel::default().show(ui, |ui| {
+            self.live_view(ui);
+            ui.separator();
+            let sel = self.selected.as_deref().and_then(|id| self.project.graph.index_of(id));
+            ui.label("Story graph (click a node)");
+            if let Some(i) = graph_view::show(ui, &self.project.graph, sel, 220.0) {
+                let id = self.project.graph.nodes[i].id.clone();
+                self.select(Some(id));
+            }
+        });
+    }
+
+    /// Undo (reloads the editors).
+    pub fn undo(&mut self) {
+        if self.project.undo() {
+            self.say("undone");
+            self.load_texts();
+        }
+    }
+
+    /// Redo.
+    pub fn redo(&mut self) {
+        if self.project.redo() {
+            self.say("redone");
+            self.load_texts();
+        }
+    }
+
+    fn toolbar(&mut self, ui: &mut egui::Ui) {
+        ui.horizontal(|ui| {
+            ui.strong(format!("Exhibit: {}", self.project.dir().display()));
+            if ui.button("Save").clicked() {
+                self.save();
+            }
+            if ui.add_enabled(true, egui::Button::new("Undo")).clicked() {
+                self.undo();
+            }
+            if ui.button("Redo").clicked() {
+                self.redo();
+            }
+            if autosave_path(self.project.dir()).exists() && ui.button("Restore autosave").clicked() {
+                self.restore_autosave();
+            }
+            ui.separator();
+            ui.label("Language");
+            let langs = self.languages();
+            for l in langs {
+                if ui.selectable_label(self.lang == l, &l).clicked() {
+                    self.lang = l;
+                    self.load_texts();
+                    self.overlay_preview = None;
+                }
+            }
+            ui.separator();
+            if self.project.dirty() {
+                ui.colored_label(Color32::from_rgb(230, 170, 60), "unsaved changes");
+            }
+        });
+    }
+
+    /// Languages in use (the default first), plus English and Italian to start with.
+    fn languages(&self) -> Vec<String> {
+        let mut v = vec![self.project.graph.default_lang.clone()];
+        for n in &self.project.graph.nodes {
+            for l in n.title.0.keys().chain(n.text.0.keys()) {
+                if !v.contains(l) {
+                    v.push(l.clone());
+                }
+            }
+        }
+        for l in ["en", "it"] {
+            if !v.iter().any(|x| x == l) {
+                v.push(l.into());
+            }
+        }
+        v
+    }
+
+    fn log_panel(&mut self, ui: &mut egui::Ui) {
+        ui.horizontal(|ui| {
+            ui.strong("Validation");
+            if ui.button("Validate").clicked() {
+                self.validate();
+            }
+        });
+        let mut jump = None;
+        egui::ScrollArea::vertical().id_salt("problems").max_height(90.0).show(ui, |ui| {
+            for p in &self.problems {
+                let text = format!("! {p}");
+                if ui.link(text).clicked() {
+                    jump = p.node.clone();
+                }
+            }
+        });
+        if let Some(id) = jump {
+            self.jump_to(&id);
+        }
+        ui.separator();
+        egui::ScrollArea::vertical().id_salt("log").max_height(80.0).stick_to_bottom(true).show(ui, |ui| {
+            for l in &self.log {
+                ui.label(l);
+            }
+        });
+    }
+
+    /// Selects a node and moves the live camera to its view.
+    pub fn jump_to(&mut self, id: &str) {
+        if let Some(i) = self.project.graph.index_of(id) {
+            let view = self.project.graph.nodes[i].view;
+            self.select(Some(id.to_string()));
+            self.set_camera(view);
+        }
+    }
+
+    fn nodes_panel(&mut self, ui: &mut egui::Ui) {
+        ui.heading("Views");
+        ui.horizontal(|ui| {
+            let l = ui.label("New id");
+            ui.add(egui::TextEdit::singleline(&mut self.new_id).desired_width(100.0)).labelled_by(l.id);
+        });
+        if ui.button("Capture view").clicked() {
+            self.capture();
+        }
+        ui.separator();
+        let mut pick = None;
+        egui::ScrollArea::vertical().show(ui, |ui| {
+            for n in &self.project.graph.nodes {
+                let title = n.title.get(&self.lang, &self.project.graph.default_lang).unwrap_or("");
+                let label = if title.is_empty() { n.id.clone() } else { format!("{} — {title}", n.id) };
+                if ui.selectable_label(self.selected.as_deref() == Some(n.id.as_str()), label).clicked() {
+                    pick = Some(n.id.clone());
+                }
+            }
+        });
+        if let Some(id) = pick {
+            self.jump_to(&id);
+        }
+        ui.separator();
+        ui.heading("Preview");
+        ui.horizontal(|ui| {
+            let l = ui.label("Seed");
+            ui.add(egui::DragValue::new(&mut self.walk_seed)).labelled_by(l.id);
+            if ui.button("Simulate walk").clicked() {
+                self.preview_walk();
+            }
+        });
+        if !self.walk.is_empty() {
+            ui.label(self.walk.join(" -> "));
+        }
+        ui.horizontal(|ui| {
+            let l = ui.label("Session");
+            ui.add(egui::TextEdit::singleline(&mut self.session_file).desired_width(120.0)).labelled_by(l.id);
+        });
+        if ui.button("Replay session").clicked() {
+            self.replay();
+        }
+        if let Some(p) = &self.replayed {
+            ui.label(format!("{:.0} s, displayed: {}", p.duration, p.displayed.join(", ")));
+        }
+    }
+
+    fn node_panel(&mut self, ui: &mut egui::Ui) {
+        let Some(id) = self.selected.clone() else {
+            ui.label("Select a view on the left, or capture one.");
+            return;
+        };
+        let Some(i) = self.project.graph.index_of(&id) else {
+            self.selected = None;
+            return;
+        };
+        ui.heading(format!("View '{id}'"));
+        ui.horizontal(|ui| {
+            if ui.button("Go to view").clicked() {
+                self.set_camera(self.project.graph.nodes[i].view);
+            }
+            if ui.button("Set to current view").clicked() {
+                let cam = self.camera();
+                let r = self.project.set_view(&id, cam);
+                self.report("set view", r);
+            }
+            if ui.button("Remove").clicked() {
+                let r = self.project.remove_node(&id);
+                if self.report("remove", r).is_some() {
+                    self.select(None);
+                }
+            }
+        });
+        if self.selected.is_none() {
+            return;
+        }
+        let mut importance = self.project.graph.nodes[i].importance;
+        let r = ui.add(egui::Slider::new(&mut importance, 0.0..=1.0).text("Importance"));
+        if r.drag_stopped() || (r.changed() && !r.dragged()) {
+            let res = self.project.set_importance(&id, importance);
+            self.report("importance", res);
+        }
+        ui.separator();
+        ui.strong(format!("Texts ({})", self.lang));
+        ui.horizontal(|ui| {
+            let l = ui.label("Title");
+            ui.text_edit_singleline(&mut self.title).labelled_by(l.id);
+        });
+        let l = ui.label("Text");
+        ui.add(egui::TextEdit::multiline(&mut self.text).desired_rows(4).hint_text("Text shown and spoken"))
+            .labelled_by(l.id);
+        if ui.button("Apply texts").clicked() {
+            self.apply_texts();
+        }
+        ui.separator();
+        ui.strong(format!("Overlay ({})", self.lang));
+        ui.horizontal(|ui| {
+            let l = ui.label("Overlay file");
+            ui.add(egui::TextEdit::singleline(&mut self.overlay_file).hint_text("drawing.png or .svg"))
+                .labelled_by(l.id);
+        });
+        ui.horizontal(|ui| {
+            if ui.button("Attach overlay").clicked() {
+                self.attach_overlay();
+            }
+            if ui.button("Preview overlay").clicked() {
+                self.preview_overlay(ui.ctx());
+            }
+        });
+        ui.separator();
+        ui.strong(format!("Narration ({})", self.lang));
+        ui.horizontal(|ui| {
+            let l = ui.label("Narration file");
+            ui.add(egui::TextEdit::singleline(&mut self.narration_file).hint_text("voice.wav / .ogg / .mp3"))
+                .labelled_by(l.id);
+        });
+        ui.horizontal(|ui| {
+            if ui.button("Attach narration").clicked() {
+                self.attach_narration();
+            }
+            if ui.button("Play").clicked() {
+                self.play_narration();
+            }
+            if ui.button("Stop").clicked()
+                && let Some(n) = self.narrator.as_mut()
+            {
+                n.stop();
+            }
+        });
+        ui.separator();
+        ui.strong("Region of interest");
+        ui.horizontal(|ui| {
+            ui.selectable_value(&mut self.tool, Tool::Navigate, "Navigate");
+            ui.selectable_value(&mut self.tool, Tool::Paint, "Paint");
+            ui.selectable_value(&mut self.tool, Tool::Erase, "Erase");
+            if ui.button("Apply region").clicked() {
+                self.apply_roi();
+            }
+        });
+        if let Some((lo, hi)) = self.project.graph.nodes[i].roi_bbox {
+            ui.label(format!("box {:.2?} – {:.2?}", lo.to_array(), hi.to_array()));
+        }
+        ui.separator();
+        ui.strong("Depends on");
+        let preds: Vec<(String, f64)> = self
+            .project
+            .graph
+            .edges
+            .iter()
+            .filter(|e| e.to == i)
+            .map(|e| (self.project.graph.nodes[e.from].id.clone(), e.weight))
+            .collect();
+        for (from, w) in preds {
+            ui.horizontal(|ui| {
+                ui.label(format!("{from} ({w:.2})"));
+                if ui.small_button("x").on_hover_text("remove this dependency").clicked() {
+                    let r = self.project.set_dependency(&from, &id, 0.0);
+                    self.report("dependency", r);
+                }
+            });
+        }
+        let others: Vec<String> =
+            self.project.graph.nodes.iter().map(|n| n.id.clone()).filter(|n| *n != id).collect();
+        egui::ComboBox::from_label("Predecessor")
+            .selected_text(self.dep_from.clone().unwrap_or_else(|| "choose…".into()))
+            .show_ui(ui, |ui| {
+                for o in others {
+                    ui.selectable_value(&mut self.dep_from, Some(o.clone()), o);
+                }
+            });
+        ui.horizontal(|ui| {
+            for (name, w) in PRESETS {
+                if ui.button(format!("{name} {w}")).clicked() {
+                    self.add_dependency(w);
+                }
+            }
+        });
+        ui.horizontal(|ui| {
+            ui.add(egui::Slider::new(&mut self.custom_weight, 0.01..=1.0).text("weight"));
+            if ui.button("Custom").clicked() {
+                self.add_dependency(self.custom_weight);
+            }
+        });
+    }
+
+    fn preview_overlay(&mut self, ctx: &egui::Context) {
+        let Some(i) = self.selected.as_deref().and_then(|id| self.project.graph.index_of(id)) else { return };
+        let node = &self.project.graph.nodes[i];
+        let view = node.view;
+        let Some(rel) = node.overlay.0.get(&self.lang).cloned() else {
+            self.say("no overlay in this language");
+            return;
+        };
+        let path = self.project.dir().join(rel);
+        match image::open(&path) {
+            Ok(img) => {
+                let img = img.to_rgba8();
+                let aspect = f64::from(img.width()) / f64::from(img.height().max(1));
+                if (aspect - VIEW_ASPECT).abs() > 0.01 * VIEW_ASPECT {
+                    self.say(format!(
+                        "warning: the overlay's aspect {aspect:.3} differs from the view's {VIEW_ASPECT:.3}"
+                    ));
+                }
+                let color = ColorImage::from_rgba_unmultiplied(
+                    [img.width() as usize, img.height() as usize],
+                    img.as_raw(),
+                );
+                let tex = ctx.load_texture(path.display().to_string(), color, TextureOptions::LINEAR);
+                self.overlay_preview = Some((path, tex));
+                self.set_camera(view);
+            }
+            Err(e) => self.say(format!("overlay {}: {e}", path.display())),
+        }
+    }
+
+    fn live_view(&mut self, ui: &mut egui::Ui) {
+        let w = ui.available_width().min(ui.available_height().max(200.0) * 16.0 / 9.0);
+        let size = vec2(w, w * 9.0 / 16.0);
+        let (rect, response) = ui.allocate_exact_size(size, Sense::click_and_drag());
+        response.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Image, true, "Live view"));
+        let p = ui.painter_at(rect);
+        let uv = Rect::from_min_max(Pos2::ZERO, egui::pos2(1.0, 1.0));
+        match &self.live {
+            Some(t) => {
+                p.image(t.id(), rect, uv, Color32::WHITE);
+            }
+            None => {
+                p.rect_filled(rect, 0.0, Color32::from_gray(30));
+                p.text(
+                    rect.center(),
+                    egui::Align2::CENTER_CENTER,
+                    "no GPU: no live view",
+                    egui::FontId::proportional(16.0),
+                    Color32::GRAY,
+                );
+            }
+        }
+        if let Some((_, t)) = &self.overlay_preview {
+            p.image(t.id(), rect, uv, Color32::WHITE);
+        }
+        if self.mask.is_some() && self.mask_tex.is_none() {
+            let m = self.mask.as_ref().map(|m| {
+                let rgba: Vec<u8> =
+                    m.pixels().flat_map(|px| [255, 60, 60, if px[0] > 127 { 110 } else { 0 }]).collect();
+                ColorImage::from_rgba_unmultiplied([m.width() as usize, m.height() as usize], &rgba)
+            });
+            if let Some(m) = m {
+                self.mask_tex = Some(ui.ctx().load_texture("roi mask", m, TextureOptions::LINEAR));
+            }
+        }
+        if let Some(t) = &self.mask_tex {
+            p.image(t.id(), rect, uv, Color32::WHITE);
+        }
+        let pointer = response.interact_pointer_pos();
+        match self.tool {
+            Tool::Navigate => {
+                if response.dragged() {
+                    let d = response.drag_delta();
+                    // Drag = hover (thesis 9.5.2 with a mouse), in viewport heights, y up.
+                    let intent = Intent {
+                        hover: (f64::from(d.x / rect.height()) * 2.0, -f64::from(d.y / rect.height()) * 2.0),
+                        ..Intent::default()
+                    };
+                    self.navigate(&intent);
+                    self.overlay_preview = None;
+                }
+                let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+                if response.hovered() && scroll != 0.0 {
+                    self.navigate(&Intent { zoom: f64::from(scroll) * 0.002, ..Intent::default() });
+                }
+            }
+            Tool::Paint | Tool::Erase => {
+                if let (Some(q), true) = (pointer, response.dragged() || response.clicked()) {
+                    let u = (q.x - rect.left()) / rect.width();
+                    let v = (q.y - rect.top()) / rect.height();
+                    self.brush(u, v, 0.06, self.tool == Tool::Paint);
+                }
+            }
+        }
+        ui.label(match self.tool {
+            Tool::Navigate => "Drag to glide over the model, wheel to come closer.",
+            Tool::Paint => "Paint the region of interest over the view (then Apply region).",
+            Tool::Erase => "Erase parts of the painted region.",
+        });
+    }
+}
+
+/// Renders an SVG drawing (curators draw overlays in vector tools) to an RGBA image at the
+/// view's size (1280×720), fitted and centred.
+pub fn svg_to_png(path: &Path) -> anyhow::Result<image::RgbaImage> {
+    let data = std::fs::read(path).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
+    let tree = resvg::usvg::Tree::from_data(&data, &resvg::usvg::Options::default())
+        .map_err(|e| anyhow::anyhow!("{}: not a valid SVG: {e}", path.display()))?;
+    let (w, h) = (1280u32, 720u32);
+    let mut pixmap = resvg::tiny_skia::Pixmap::new(w, h).ok_or_else(|| anyhow::anyhow!("cannot allocate"))?;
+    let size = tree.size();
+    let scale = (w as f32 / size.width()).min(h as f32 / size.height());
+    let dx = (w as f32 - size.width() * scale) * 0.5;
+    let dy = (h as f32 - size.height() * scale) * 0.5;
+    let transform = resvg::tiny_skia::Transform::from_row(scale, 0.0, 0.0, scale, dx, dy);
+    resvg::render(&tree, transform, &mut pixmap.as_mut());
+    // tiny-skia stores premultiplied alpha; PNG overlays are straight alpha.
+    let mut rgba = Vec::with_capacity((w * h * 4) as usize);
+    for px in pixmap.pixels() {
+        let c = px.demultiply();
+        rgba.extend_from_slice(&[c.red(), c.green(), c.blue(), c.alpha()]);
+    }
+    image::RgbaImage::from_raw(w, h, rgba).ok_or_else(|| anyhow::anyhow!("size mismatch"))
+}
