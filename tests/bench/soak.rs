@@ -44,13 +44,25 @@ fn main() {
         .expect("xvfb-run (installed by .ci/setup)");
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "kiosk failed\n{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
-    let line = stdout.lines().find(|l| l.starts_with("soak:")).expect("the kiosk's soak line");
+    // Periodic samples ("soak: t = 300 s, RSS 123 kB") and the final line.
+    let series: Vec<(f64, f64)> = stdout
+        .lines()
+        .filter_map(|l| {
+            let rest = l.strip_prefix("soak: t = ")?;
+            let (t, rss) = rest.split_once(" s, RSS ")?;
+            Some((t.parse().ok()?, rss.trim_end_matches(" kB").parse().ok()?))
+        })
+        .collect();
+    let line =
+        stdout.lines().rfind(|l| l.starts_with("soak:") && l.contains("at the end")).expect("final line");
     println!("{line}");
-    let number_before = |key: &str| -> f64 {
-        let i = line.find(key).expect(key);
-        line[..i].split_whitespace().last().and_then(|v| v.parse().ok()).expect("number")
-    };
-    let warm = number_before("kB, at the end");
+    println!();
+    println!("| kiosk time (s) | RSS (MB) |");
+    println!("|---|---|");
+    for (t, rss) in &series {
+        println!("| {t:.0} | {:.1} |", rss / 1024.0);
+    }
+    let warm = series.iter().find(|(t, _)| *t >= 300.0).map(|s| s.1).expect("warm-up sample");
     let end: f64 = line
         .split("at the end ")
         .nth(1)
@@ -58,12 +70,13 @@ fn main() {
         .and_then(|v| v.parse().ok())
         .expect("end RSS");
     println!();
-    println!("| kiosk time | clock speed | RSS after warm-up (300 s) | RSS at the end | change |");
-    println!("|---|---|---|---|---|");
+    println!("| kiosk time | clock speed | RSS after warm-up (300 s) | RSS at the end | change | goal |");
+    println!("|---|---|---|---|---|---|");
+    let change = 100.0 * (end - warm) / warm;
     println!(
-        "| {hours} h | {speed}× | {:.1} MB | {:.1} MB | {:+.2} % |",
+        "| {hours} h | {speed}× | {:.1} MB | {:.1} MB | {change:+.1} % | {} |",
         warm / 1024.0,
         end / 1024.0,
-        100.0 * (end - warm) / warm
+        if change.abs() <= 5.0 { "met (≤ 5 %)" } else { "NOT met (≤ 5 %)" }
     );
 }

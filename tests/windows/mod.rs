@@ -46,8 +46,7 @@ fn run_in(content: &Path, script: &Script, shots: &[f64], config: &str, speed: f
     let session = dir.path().join("session.jsonl");
     std::fs::write(&session, script.session().to_jsonl()).expect("write session");
     let cfg = dir.path().join("kiosk.toml");
-    std::fs::write(&cfg, format!("content = {:?}\n{config}", content.display().to_string()))
-        .expect("config");
+    std::fs::write(&cfg, format!("content = {:?}\n{config}", content.display().to_string())).expect("config");
     let trace = dir.path().join("trace.jsonl");
     let shots: Vec<String> = shots.iter().map(|t| format!("{t}")).collect();
     let runtime = std::env::temp_dir().join("xdg-runtime-isokiosk-tests");

@@ -205,6 +205,8 @@ struct Running {
     rss_warm: Option<u64>,
     /// Frames rendered (both windows).
     rendered: u64,
+    /// The last frame's submission, waited for before the next frame.
+    in_flight: Option<wgpu::SubmissionIndex>,
 }
 
 fn rss_kb() -> Option<u64> {
@@ -342,6 +344,7 @@ impl App {
             reported: HashSet::new(),
             rss_warm: None,
             rendered: 0,
+            in_flight: None,
         })
     }
 }
@@ -517,6 +520,9 @@ impl Running {
             self.sim_t = t;
             self.steps += 1;
             stepped = true;
+            if opts.run_for.is_some() && self.steps.is_multiple_of((300.0 / dt).round() as u64) {
+                println!("soak: t = {t:.0} s, RSS {} kB", rss_kb().unwrap_or(0));
+            }
             if self.rss_warm.is_none() && t >= opts.warmup && opts.run_for.is_some() {
                 self.rss_warm = rss_kb();
                 tracing::info!("soak: RSS after warm-up {} kB", self.rss_warm.unwrap_or(0));
@@ -542,9 +548,11 @@ impl Running {
             if let (Some(warm), Some(end)) = (self.rss_warm, rss_kb()) {
                 let change = 100.0 * (end as f64 - warm as f64) / warm.max(1) as f64;
                 println!(
-                    "soak: {:.0} s of kiosk time in {:.0} s, RSS after warm-up {warm} kB, at the end {end} kB ({change:+.1} %)",
+                    "soak: {:.0} s of kiosk time in {:.0} s, {} steps, {} frames rendered, RSS after warm-up {warm} kB, at the end {end} kB ({change:+.1} %)",
                     self.sim_t,
-                    self.start.elapsed().as_secs_f64()
+                    self.start.elapsed().as_secs_f64(),
+                    self.steps,
+                    self.rendered
                 );
             }
             if let Some(w) = self.trace.as_mut() {
@@ -579,6 +587,15 @@ impl Running {
     /// Renders both windows' canvases and presents them.
     fn render(&mut self, exhibits: &[Exhibit], t: f64) -> anyhow::Result<()> {
         self.rendered += 1;
+        // At most one frame in flight: without vsync (Xvfb, some drivers) presenting does not
+        // throttle, and frames submitted faster than the GPU draws them pile up in its queue —
+        // memory grew without bound in the soak run until this wait.
+        if let Some(index) = self.in_flight.take()
+            && let Err(e) =
+                self.gpu.device.poll(wgpu::PollType::Wait { submission_index: Some(index), timeout: None })
+        {
+            self.report("GPU wait", &e);
+        }
         self.render_projection(exhibits, t);
         self.render_controller(exhibits, t);
         if let Err(e) = self.gpu.check() {
@@ -590,10 +607,7 @@ impl Running {
         if let Err(e) = self.controller.present(&self.gpu, &self.blit) {
             self.report("controller window", &e);
         }
-        // Lets wgpu recycle what finished frames used (staging memory, dropped bind groups).
-        if let Err(e) = self.gpu.device.poll(wgpu::PollType::Poll) {
-            self.report("GPU poll", &e);
-        }
+        self.in_flight = Some(self.gpu.queue.submit([]));
         Ok(())
     }
 

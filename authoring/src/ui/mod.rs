@@ -444,7 +444,13 @@ impl AuthorApp {
             ui.separator();
             let sel = self.selected.as_deref().and_then(|id| self.project.graph.index_of(id));
             ui.label("Story graph (click a node)");
-            if let Some(i) = graph_view::show(ui, &self.project.graph, sel, 220.0) {
+            let depth = graph_view::levels(&self.project.graph).into_iter().max().unwrap_or(0) + 1;
+            let height = (depth as f32 * 52.0 + 24.0).max(160.0);
+            if let Some(i) = egui::ScrollArea::vertical()
+                .id_salt("graph")
+                .show(ui, |ui| graph_view::show(ui, &self.project.graph, sel, height))
+                .inner
+            {
                 let id = self.project.graph.nodes[i].id.clone();
                 self.select(Some(id));
             }
