@@ -48,8 +48,15 @@ fn drag_view(h: &mut Harness<'_, AuthorApp>, dx: f32, dy: f32) {
     h.run_steps(2);
 }
 
-/// The `kiosk` binary of this workspace (built on demand).
+/// The `kiosk` binary of this workspace: the one `cargo test --workspace` built beside this
+/// test, else built now.
 fn kiosk_binary() -> PathBuf {
+    let exe = std::env::current_exe().expect("test exe");
+    let target = exe.parent().and_then(Path::parent).expect("target/debug");
+    let bin = target.join("kiosk");
+    if bin.exists() {
+        return bin;
+    }
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let status = Command::new(cargo)
         .args(["build", "--quiet", "-p", "kiosk", "--bin", "kiosk"])
@@ -57,9 +64,6 @@ fn kiosk_binary() -> PathBuf {
         .status()
         .expect("cargo");
     assert!(status.success(), "cannot build the kiosk binary");
-    let exe = std::env::current_exe().expect("test exe");
-    let target = exe.parent().and_then(Path::parent).expect("target/debug");
-    let bin = target.join("kiosk");
     assert!(bin.exists(), "{} missing", bin.display());
     bin
 }

@@ -510,7 +510,19 @@ impl Running {
                 }
             });
             self.queue = live;
+            let before = self.kiosk.mode();
             let frame = self.kiosk.step(&models, t);
+            if before != Mode::Gallery
+                && frame.mode == Mode::Gallery
+                && frame.explore.is_none()
+                && self.kiosk.idle_secs() >= self.kiosk.settings.reset_after_secs
+            {
+                // The reset, nobody in front of the kiosk: renew the renderer's GPU objects. On
+                // lavapipe, drawing the model makes driver memory tied to them grow frame after
+                // frame (README, soak); renewing bounds it. The model nodes upload again at once.
+                self.renderer = Renderer::new(&self.gpu, self.projection.format());
+                tracing::info!("reset: renderer renewed");
+            }
             for fx in &frame.effects {
                 self.effect(fx, exhibits);
             }
