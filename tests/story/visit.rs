@@ -213,3 +213,33 @@ fn same_session_same_seed_same_frames() {
     let b = serde_json::to_string(&d.run(&s, &fast(), 1.0)).expect("json");
     assert_eq!(a, b);
 }
+
+#[test]
+fn a_view_chosen_in_the_radial_menu_does_not_stop_the_attract_tour() {
+    let d = demo();
+    // Explore, long press, choose the top candidate, then nobody: its display would last until
+    // the visitor moves away; the attract loop must go on touring.
+    let s = Script::new()
+        .wait(0.2)
+        .down(1, 0.5, 0.86)
+        .wait(0.05)
+        .up(1, 0.5, 0.86)
+        .wait(0.5)
+        .down(2, 0.5, 0.5)
+        .wait(1.0)
+        .drag(&[(2, (0.5, 0.5), (0.5, 0.3))], 0.2)
+        .up(2, 0.5, 0.3)
+        .wait(150.0)
+        .cancel(99);
+    let frames = d.run(&s, &fast(), 0.0);
+    let mut shown: Vec<String> = Vec::new();
+    for f in &frames {
+        if let Some(o) = f.explore.as_ref().and_then(|e| e.overlay.clone())
+            && shown.last() != Some(&o)
+        {
+            shown.push(o);
+        }
+    }
+    assert!(frames.iter().any(|f| f.mode == Mode::Attract), "the attract loop started");
+    assert!(shown.len() >= 3, "the tour went on after the menu's choice: {shown:?}");
+}

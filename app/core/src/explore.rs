@@ -173,6 +173,11 @@ impl Explorer {
             moving: !intent.is_idle(),
         };
         let mut rec_event = RecEvent::Tick;
+        if self.autopilot
+            && let Some(r) = self.rec.as_mut()
+        {
+            r.release_hold();
+        }
         if self.autopilot && matches!(self.rec.as_ref().map(|r| r.state), Some(RecState::Propose { .. })) {
             rec_event = RecEvent::LongPress;
         }

@@ -424,6 +424,15 @@ impl Recommender {
         }
     }
 
+    /// A display chosen in the radial menu normally stays until the visitor moves away; once
+    /// nobody is there (the kiosk's attract loop) it times out like any other.
+    pub fn release_hold(&mut self) {
+        match &mut self.state {
+            RecState::GoTo { from_menu, .. } | RecState::Display { from_menu, .. } => *from_menu = false,
+            _ => {}
+        }
+    }
+
     /// Forgets the visit (history and state), keeping the long-run statistics.
     pub fn reset_visit(&mut self, now: f64) {
         for s in &mut self.stats {
