@@ -126,16 +126,46 @@ impl GpuWindow {
 
     /// A point of the window (normalised, origin top-left) on the canvas (normalised).
     pub fn to_canvas(&self, u: f64, v: f64) -> (f64, f64) {
-        match self.turns {
-            1 => (v, 1.0 - u),
-            2 => (1.0 - u, 1.0 - v),
-            3 => (1.0 - v, u),
-            _ => (u, v),
-        }
+        canvas_point(self.turns, u, v)
+    }
+}
+
+/// Where a point of a window (normalised, origin top-left) lies on its canvas when the canvas is
+/// shown turned `turns` quarter turns clockwise — the mapping blit.wgsl samples with, so touches
+/// land where the turned picture shows them.
+pub fn canvas_point(turns: u32, u: f64, v: f64) -> (f64, f64) {
+    match turns % 4 {
+        1 => (v, 1.0 - u),
+        2 => (1.0 - u, 1.0 - v),
+        3 => (1.0 - v, u),
+        _ => (u, v),
     }
 }
 
 /// The canvas size for a window size and a number of quarter turns.
 fn logical((w, h): (u32, u32), turns: u32) -> (u32, u32) {
     if turns % 2 == 1 { (h, w) } else { (w, h) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::canvas_point;
+
+    #[test]
+    fn turned_touches_land_on_the_canvas_point_shown_there() {
+        // A quarter turn clockwise: the canvas' top-left corner is shown at the window's
+        // top-right, its top-right at the window's bottom-right.
+        assert_eq!(canvas_point(1, 1.0, 0.0), (0.0, 0.0));
+        assert_eq!(canvas_point(1, 1.0, 1.0), (1.0, 0.0));
+        assert_eq!(canvas_point(2, 0.0, 0.0), (1.0, 1.0));
+        assert_eq!(canvas_point(3, 0.0, 1.0), (0.0, 0.0));
+        // Turning by 1 then by 3 (inverse pair) is the identity on any point.
+        for &(u, v) in &[(0.2, 0.7), (0.9, 0.1), (0.5, 0.5)] {
+            let (a, b) = canvas_point(1, u, v);
+            let (x, y) = canvas_point(3, a, b);
+            assert!((x - u).abs() < 1e-12 && (y - v).abs() < 1e-12);
+            assert_eq!(canvas_point(0, u, v), (u, v));
+            assert_eq!(canvas_point(4, u, v), (u, v));
+        }
+    }
 }
