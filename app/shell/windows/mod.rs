@@ -199,6 +199,8 @@ struct Running {
     trace: Option<std::io::BufWriter<std::fs::File>>,
     cursor: (f64, f64),
     mouse_down: bool,
+    /// Whether Ctrl is held (for Ctrl+Q).
+    ctrl: bool,
     gallery_cut: Option<(usize, Cut)>,
     render_settings: RenderSettings,
     reported: HashSet<String>,
@@ -339,6 +341,7 @@ impl App {
             trace,
             cursor: (0.5, 0.5),
             mouse_down: false,
+            ctrl: false,
             gallery_cut: None,
             render_settings: RenderSettings::default(),
             reported: HashSet::new(),
@@ -372,11 +375,13 @@ impl ApplicationHandler for App {
                 let w = if on_controller { &mut s.controller } else { &mut s.projection };
                 w.resize(&s.gpu, (size.width, size.height));
             }
+            WindowEvent::ModifiersChanged(m) => s.ctrl = m.state().control_key(),
             WindowEvent::KeyboardInput { event, .. } => {
-                // Ctrl+Q or Escape in windowed mode closes the kiosk (technicians, not visitors).
+                // Ctrl+Q, or Escape in windowed mode, closes the kiosk (technicians, not visitors).
                 if event.state == ElementState::Pressed
+                    && s.ctrl
                     && let winit::keyboard::Key::Character(c) = &event.logical_key
-                    && c.as_str() == "q"
+                    && c.as_str().eq_ignore_ascii_case("q")
                 {
                     el.exit();
                 }
