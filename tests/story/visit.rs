@@ -85,7 +85,7 @@ fn gallery_swipes_and_taps() {
 #[test]
 fn buttons_language_help_back() {
     let d = demo();
-    let tap = |s: Script, x: f64, y: f64| s.down(1, x, y).wait(0.05).up(1, x, y).wait(0.5);
+    let tap = |s: Script, x: f64, y: f64| s.tap(1, x, y).wait(0.5);
     let mut s = Script::new().wait(0.2);
     s = tap(s, 0.5, 0.86); // Explore
     s = tap(s, 0.9, 0.07); // Help
@@ -108,9 +108,7 @@ fn a_drag_starting_on_a_button_is_not_a_press_and_a_drag_elsewhere_moves_the_cam
     let d = demo();
     let s = Script::new()
         .wait(0.2)
-        .down(1, 0.5, 0.86)
-        .wait(0.05)
-        .up(1, 0.5, 0.86)
+        .tap(1, 0.5, 0.86)
         .wait(0.5)
         // Slides off the back button before lifting: no press.
         .swipe(5, (0.08, 0.07), (0.5, 0.5), 0.4)
@@ -136,13 +134,9 @@ fn attract_loop_tours_the_model_and_a_touch_takes_over_then_the_reset() {
     // Explore, switch to Italian, then nobody touches for 200 s; a touch; then nobody for 400 s.
     let s = Script::new()
         .wait(0.2)
-        .down(1, 0.5, 0.86)
-        .wait(0.05)
-        .up(1, 0.5, 0.86)
+        .tap(1, 0.5, 0.86)
         .wait(0.5)
-        .down(1, 0.74, 0.07)
-        .wait(0.05)
-        .up(1, 0.74, 0.07)
+        .tap(1, 0.74, 0.07)
         .wait(200.0)
         .down(3, 0.5, 0.5)
         .wait(0.1)
@@ -201,14 +195,7 @@ fn attract_loop_tours_the_model_and_a_touch_takes_over_then_the_reset() {
 #[test]
 fn same_session_same_seed_same_frames() {
     let d = demo();
-    let s = Script::new()
-        .wait(0.2)
-        .down(1, 0.5, 0.86)
-        .wait(0.05)
-        .up(1, 0.5, 0.86)
-        .joystick(2, (0.1, 0.05), 2.0)
-        .wait(40.0)
-        .cancel(99);
+    let s = Script::new().wait(0.2).tap(1, 0.5, 0.86).joystick(2, (0.1, 0.05), 2.0).wait(40.0).cancel(99);
     let a = serde_json::to_string(&d.run(&s, &fast(), 1.0)).expect("json");
     let b = serde_json::to_string(&d.run(&s, &fast(), 1.0)).expect("json");
     assert_eq!(a, b);
@@ -221,14 +208,9 @@ fn a_view_chosen_in_the_radial_menu_does_not_stop_the_attract_tour() {
     // the visitor moves away; the attract loop must go on touring.
     let s = Script::new()
         .wait(0.2)
-        .down(1, 0.5, 0.86)
-        .wait(0.05)
-        .up(1, 0.5, 0.86)
+        .tap(1, 0.5, 0.86)
         .wait(0.5)
-        .down(2, 0.5, 0.5)
-        .wait(1.0)
-        .drag(&[(2, (0.5, 0.5), (0.5, 0.3))], 0.2)
-        .up(2, 0.5, 0.3)
+        .radial_pick(2, (0.5, 0.5), 1.0, (0.5, 0.3))
         .wait(150.0)
         .cancel(99);
     let frames = d.run(&s, &fast(), 0.0);

@@ -139,14 +139,9 @@ fn a_visit_through_the_real_windows() {
     // candidate), watch its overlay.
     let script = Script::new()
         .wait(0.3)
-        .down(1, 0.5, 0.86)
-        .wait(0.05)
-        .up(1, 0.5, 0.86)
+        .tap(1, 0.5, 0.86)
         .wait(1.2)
-        .down(2, 0.5, 0.5)
-        .wait(1.3)
-        .drag(&[(2, (0.5, 0.5), (0.5, 0.3))], 0.2)
-        .up(2, 0.5, 0.3)
+        .radial_pick(2, (0.5, 0.5), 1.3, (0.5, 0.3))
         .wait(4.0)
         .cancel(99);
     let run = run(&script, &[0.2, 1.5, 2.7, 6.8], "", 1.0);
@@ -212,7 +207,7 @@ fn a_visit_through_the_real_windows() {
 
 #[test]
 fn attract_loop_and_reset_with_an_accelerated_clock() {
-    let script = Script::new().wait(0.3).down(1, 0.5, 0.86).wait(0.05).up(1, 0.5, 0.86).wait(11.0).cancel(99);
+    let script = Script::new().wait(0.3).tap(1, 0.5, 0.86).wait(11.0).cancel(99);
     let config = "attract_after_secs = 3.0\nreset_after_secs = 8.0\n";
     let run = run(&script, &[1.0, 5.0, 10.0], config, 3.0);
     assert_eq!(run.frame(1.0)["mode"], "explore");
@@ -262,9 +257,8 @@ fn broken_content_is_logged_once_and_the_rest_keeps_working() {
     std::fs::write(broken.join("model.obj"), "v 1 2 three\nf 1 2 9\n").expect("garbage model");
     // Explore, then go to the intro twice through the radial menu (its overlay and narration
     // are asked for twice; each problem must be logged once).
-    let menu_to_top =
-        |s: Script| s.down(2, 0.5, 0.5).wait(1.0).drag(&[(2, (0.5, 0.5), (0.5, 0.3))], 0.2).up(2, 0.5, 0.3);
-    let mut script = Script::new().wait(0.3).down(1, 0.5, 0.86).wait(0.05).up(1, 0.5, 0.86).wait(0.5);
+    let menu_to_top = |s: Script| s.radial_pick(2, (0.5, 0.5), 1.0, (0.5, 0.3));
+    let mut script = Script::new().wait(0.3).tap(1, 0.5, 0.86).wait(0.5);
     script = menu_to_top(script).wait(4.0).joystick(3, (0.2, 0.0), 1.0).wait(0.5);
     script = menu_to_top(script).wait(4.0).cancel(99);
     let run = run_in(content.path(), &script, &[6.0], "", 1.0);

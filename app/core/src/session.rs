@@ -166,6 +166,15 @@ impl Script {
         }
         self
     }
+    /// A tap: down and up at one point 50 ms apart.
+    pub fn tap(self, id: i64, x: f64, y: f64) -> Self {
+        self.down(id, x, y).wait(0.05).up(id, x, y)
+    }
+    /// A radial-menu pick: a long press at `at` held `hold` seconds, then a 0.2 s slide to `to`
+    /// and release there (selects in that direction).
+    pub fn radial_pick(self, id: i64, at: (f64, f64), hold: f64, to: (f64, f64)) -> Self {
+        self.down(id, at.0, at.1).wait(hold).drag(&[(id, at, to)], 0.2).up(id, to.0, to.1)
+    }
     /// One finger: down at `from`, slide to `to` over `secs`, up (a swipe or a drag).
     pub fn swipe(self, id: i64, from: (f64, f64), to: (f64, f64), secs: f64) -> Self {
         self.down(id, from.0, from.1).drag(&[(id, from, to)], secs).up(id, to.0, to.1)

@@ -23,6 +23,7 @@ use wgpu::util::DeviceExt;
 pub use wgpu;
 
 mod blit;
+mod fullscreen;
 pub use blit::{BLIT_WGSL, Blit};
 
 /// The splat shader (validated by a test with naga).
@@ -318,67 +319,20 @@ impl Renderer {
             multiview_mask: None,
             cache: None,
         });
-        let edl_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("edl"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Depth,
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
+        let (edl_layout, edl_pipeline) = fullscreen::pipeline(
+            device,
+            "edl",
+            &edl,
+            &[
+                fullscreen::fragment_binding(0, fullscreen::UNIFORM),
+                fullscreen::fragment_binding(
+                    1,
+                    fullscreen::texture(wgpu::TextureSampleType::Float { filterable: false }),
+                ),
+                fullscreen::fragment_binding(2, fullscreen::texture(wgpu::TextureSampleType::Depth)),
             ],
-        });
-        let edl_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("edl"),
-            bind_group_layouts: &[Some(&edl_layout)],
-            immediate_size: 0,
-        });
-        let edl_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("edl"),
-            layout: Some(&edl_pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &edl,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &edl,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &[Some(format.into())],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+            format,
+        );
         let edl_uniforms = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("edl uniforms"),
             size: std::mem::size_of::<EdlUniforms>() as u64,
@@ -616,25 +570,7 @@ impl Renderer {
             }
         }
         if edl_on {
-            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("edl"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: target,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_pipeline(&self.edl_pipeline);
-            pass.set_bind_group(0, &t.edl_group, &[]);
-            pass.draw(0..3, 0..1);
+            fullscreen::draw(&mut enc, "edl", target, &self.edl_pipeline, &t.edl_group);
         }
         gpu.queue.submit([enc.finish()]);
         gpu.check()?;

@@ -691,11 +691,10 @@ impl Running {
                 duration: INSET_PATH,
             };
             let cam = path.camera_at(t, SceneRef { store, cut: x.cut() }, x.min_distance());
-            let inset_nodes = x.cut().nodes().to_vec();
             if let Err(e) = self.renderer.render(
                 &self.gpu,
                 store,
-                &inset_nodes,
+                x.cut().nodes(),
                 &cam,
                 &self.inset.view,
                 INSET_SIZE,
