@@ -45,8 +45,11 @@ fn main() -> anyhow::Result<()> {
 
     // 1. Build.
     println!("\n## Build (release, default M = {})", BuildParams::default().node_points);
-    println!("| input | points | seconds | points/s | peak RSS MB | nodes | levels | store MB |");
-    println!("|---|---|---|---|---|---|---|---|");
+    println!(
+        "| input | points | seconds | points/s | peak RSS MB | nodes | levels | store MB | \
+         s: read · distribute · merge · order · estimate · nodes |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
     let scan_store = out_dir.join("scan.kstore");
     child(&format!("scan:{}", scan.display()), 8192, &scan_store)?;
     let mut synthetic_stores = Vec::new();
@@ -158,16 +161,23 @@ fn child_build(input: &str, m: usize, out: &str) -> anyhow::Result<()> {
         })?;
         label = path.file_name().map_or("scan".into(), |n| n.to_string_lossy().into_owned());
     }
+    let read = start.elapsed().as_secs_f64();
     let s = b.finish(out, &mut |_| {})?;
     let secs = start.elapsed().as_secs_f64();
+    let t = s.timings;
     println!(
-        "| {label} | {} | {secs:.2} | {:.0} | {:.0} | {} | {} | {:.0} |",
+        "| {label} | {} | {secs:.2} | {:.0} | {:.0} | {} | {} | {:.0} | {read:.2} · {:.2} · {:.2} · {:.2} · {:.2} · {:.2} |",
         s.input_points,
         s.input_points as f64 / secs,
         peak_rss_mb(),
         s.nodes,
         s.levels,
-        s.bytes as f64 / 1e6
+        s.bytes as f64 / 1e6,
+        t.distribute.as_secs_f64(),
+        t.merge.as_secs_f64(),
+        t.order.as_secs_f64(),
+        t.estimate.as_secs_f64(),
+        t.nodes.as_secs_f64(),
     );
     Ok(())
 }

@@ -20,22 +20,26 @@ impl Aabb {
     pub const EMPTY: Self = Self { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
 
     /// Whether no point was ever added.
+    #[inline]
     pub fn is_empty(&self) -> bool {
         self.min.x > self.max.x
     }
 
     /// Grows the box to contain `p`.
+    #[inline]
     pub fn include(&mut self, p: Vec3) {
         self.min = self.min.min(p);
         self.max = self.max.max(p);
     }
 
     /// The smallest box containing both.
+    #[inline]
     pub fn union(self, o: Self) -> Self {
         Self { min: self.min.min(o.min), max: self.max.max(o.max) }
     }
 
     /// The tight box of a set of points.
+    #[inline]
     pub fn from_points(points: impl IntoIterator<Item = Vec3>) -> Self {
         let mut b = Self::EMPTY;
         for p in points {
@@ -45,11 +49,13 @@ impl Aabb {
     }
 
     /// Box grown by `r` in every direction.
+    #[inline]
     pub fn inflate(self, r: f32) -> Self {
         Self { min: self.min - Vec3::splat(r), max: self.max + Vec3::splat(r) }
     }
 
     /// Extent along each axis (zero for an empty box).
+    #[inline]
     pub fn extent(&self) -> Vec3 {
         if self.is_empty() { Vec3::ZERO } else { self.max - self.min }
     }
@@ -65,17 +71,20 @@ impl Aabb {
     }
 
     /// The point of the box closest to `p` (p itself when inside).
+    #[inline]
     pub fn closest_point(&self, p: Vec3) -> Vec3 {
         p.clamp(self.min, self.max)
     }
 
     /// Squared distance from `p` to the box (0 inside).
+    #[inline]
     pub fn distance_squared(&self, p: Vec3) -> f32 {
         (self.closest_point(p) - p).length_squared()
     }
 
     /// Entry and exit parameters of the ray `o + t d` through the box, clipped to `[t_min, t_max]`;
     /// `None` when the ray misses.
+    #[inline]
     pub fn ray_interval(&self, o: Vec3, inv_d: Vec3, t_min: f32, t_max: f32) -> Option<(f32, f32)> {
         let t0 = (self.min - o) * inv_d;
         let t1 = (self.max - o) * inv_d;

@@ -92,6 +92,31 @@ pub struct BuildSummary {
     pub bytes: u64,
     /// Regions processed out of core (1: everything fitted in memory).
     pub chunks: usize,
+    /// Where the time of [`Builder::finish`] went.
+    pub timings: Timings,
+}
+
+/// Wall time of each stage of [`Builder::finish`], summed over regions.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Timings {
+    /// Writing the spill and distributing it to region files (out-of-core builds only).
+    pub distribute: std::time::Duration,
+    /// Merging duplicates.
+    pub merge: std::time::Duration,
+    /// Sorting each region in the order of the hierarchy.
+    pub order: std::time::Duration,
+    /// Neighbour search for spacings and normals.
+    pub estimate: std::time::Duration,
+    /// Leaves, simplification of inner nodes, writing them.
+    pub nodes: std::time::Duration,
+}
+
+/// Time since `clock`, which restarts.
+fn lap(clock: &mut std::time::Instant) -> std::time::Duration {
+    let now = std::time::Instant::now();
+    let d = now - *clock;
+    *clock = now;
+    d
 }
 
 /// Progress of a build, for a progress bar.
@@ -227,17 +252,26 @@ impl Builder {
         let origin = (self.min + self.max) * 0.5;
         let params = self.params;
         let mut writer = StoreWriter::create(out)?;
-        let mut ctx = Ctx { params, writer: &mut writer, done: 0, total: self.count, progress };
+        let mut ctx = Ctx {
+            params,
+            writer: &mut writer,
+            done: 0,
+            total: self.count,
+            progress,
+            timings: Timings::default(),
+        };
         let (root, chunks) = match self.spill {
             Spill::Memory(v) => {
                 let root = ctx.region(&v, origin)?;
                 (root, 1)
             }
             Spill::Disk { file } => {
+                let mut clock = std::time::Instant::now();
                 let tmp = file.into_inner().map_err(|e| e.into_error())?;
                 let top = TopTree::build(&self.reservoir, self.count, params.chunk_points / 2);
                 let chunks = top.leaves();
                 let files = distribute(tmp.path(), &top, self.count, &self.tmp_dir, ctx.progress)?;
+                ctx.timings.distribute += lap(&mut clock);
                 (
                     ctx.top(&top, 0, &files, origin)?
                         .ok_or_else(|| BuildError::Degenerate("no samples reached any region".into()))?,
@@ -245,11 +279,11 @@ impl Builder {
                 )
             }
         };
+        let timings = ctx.timings;
         let root = root.id;
         let levels = writer.node(root).height + 1;
         let nodes = u64::from(root) + 1;
-        let (leaf, total) = (writer_counts(&writer, root), 0);
-        let _ = total;
+        let leaf = writer_counts(&writer, root);
         let bytes = writer.finish(origin.to_array(), self.count, params.node_points as u32)?;
         Ok(BuildSummary {
             input_points: self.count,
@@ -259,6 +293,7 @@ impl Builder {
             levels,
             bytes,
             chunks,
+            timings,
         })
     }
 }
@@ -378,6 +413,7 @@ struct Ctx<'a> {
     done: u64,
     total: u64,
     progress: &'a mut dyn FnMut(Stage),
+    timings: Timings,
 }
 
 impl Ctx<'_> {
@@ -413,6 +449,7 @@ impl Ctx<'_> {
 
     /// Processes one in-memory region into a subtree.
     fn region(&mut self, recs: &[RawRec], origin: DVec3) -> Result<Sub, BuildError> {
+        let mut clock = std::time::Instant::now();
         let n_in = recs.len() as u64;
         let mut pts: Vec<(Vec3, Vec3, [u8; 4], f32)> = recs
             .iter()
@@ -420,55 +457,71 @@ impl Ctx<'_> {
                 ((DVec3::from_array(r.pos) - origin).as_vec3(), Vec3::from_array(r.normal), r.color, r.radius)
             })
             .collect();
-        // Merge duplicates (identical stored positions): average their normals and colours.
-        pts.par_sort_unstable_by(|a, b| {
-            a.0.x.total_cmp(&b.0.x).then(a.0.y.total_cmp(&b.0.y)).then(a.0.z.total_cmp(&b.0.z))
-        });
-        let mut merged: Vec<(Vec3, Vec3, [u8; 4], f32)> = Vec::with_capacity(pts.len());
+        // Merge duplicates (identical stored positions): average their normals and colours. One
+        // integer per sample sorts them: the three coordinates (bits in the order of `total_cmp`)
+        // then the sample's index, so a run of equal positions is contiguous and in input order.
+        let mut keys: Vec<u128> = pts
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let [x, y, z] = p.0.to_array().map(|c| u128::from(ordered_bits(c)));
+                x << 96 | y << 64 | z << 32 | i as u128
+            })
+            .collect();
+        keys.par_sort_unstable();
+        // A run of duplicates becomes its first sample; the others are dropped. Samples keep
+        // their input order (only duplicates are looked up out of order).
+        let mut dropped = vec![false; pts.len()];
         let mut i = 0;
-        while i < pts.len() {
+        while i < keys.len() {
             let mut j = i + 1;
-            while j < pts.len() && pts[j].0 == pts[i].0 {
+            while j < keys.len() && keys[j] >> 32 == keys[i] >> 32 {
                 j += 1;
             }
-            if j - i == 1 {
-                merged.push(pts[i]);
-            } else {
-                let nrm = pts[i..j].iter().fold(Vec3::ZERO, |a, p| a + p.1).normalize_or_zero();
+            if j - i > 1 {
+                let run: Vec<usize> = keys[i..j].iter().map(|&k| k as u32 as usize).collect();
+                let nrm = run.iter().fold(Vec3::ZERO, |a, &k| a + pts[k].1).normalize_or_zero();
                 let mut c = [0u32; 4];
-                for p in &pts[i..j] {
-                    for (acc, v) in c.iter_mut().zip(p.2) {
+                for &k in &run {
+                    for (acc, v) in c.iter_mut().zip(pts[k].2) {
                         *acc += u32::from(v);
                     }
                 }
-                let n = (j - i) as u32;
-                let r = pts[i..j].iter().fold(0.0f32, |a, p| a.max(p.3));
-                merged.push((pts[i].0, nrm, c.map(|x| (x / n) as u8), r));
+                let n = run.len() as u32;
+                let r = run.iter().fold(0.0f32, |a, &k| a.max(pts[k].3));
+                pts[run[0]] = (pts[run[0]].0, nrm, c.map(|x| (x / n) as u8), r);
+                for &k in &run[1..] {
+                    dropped[k] = true;
+                }
             }
             i = j;
         }
+        let merged: Vec<(Vec3, Vec3, [u8; 4], f32)> =
+            pts.iter().zip(&dropped).filter(|(_, d)| !**d).map(|(p, _)| *p).collect();
+        drop(keys);
         drop(pts);
-        let mut positions: Vec<Vec3> = merged.iter().map(|p| p.0).collect();
-        if positions.len() < 2 {
+        self.timings.merge += lap(&mut clock);
+        if merged.len() < 2 {
             return Err(BuildError::Degenerate(format!(
                 "all {n_in} samples are at the same position: a model needs at least 2 distinct points"
             )));
         }
-        // Estimate on a spatially sorted copy, then map back by sorting `merged` the same way.
-        let mut order: Vec<u32> = (0..positions.len() as u32).collect();
-        {
-            let mut keyed: Vec<(Vec3, u32)> = positions.iter().copied().zip(order.iter().copied()).collect();
-            sort_keyed(&mut keyed);
-            for (k, (p, o)) in keyed.into_iter().enumerate() {
-                positions[k] = p;
-                order[k] = o;
-            }
-        }
+        // One spatial order serves everything below: the splits of the node kd-tree at the top,
+        // the implicit box hierarchy of each node under it. Estimation searches the whole region
+        // in this order, and the subtree is cut from it without moving a sample again.
+        let mut keyed: Vec<Keyed> =
+            merged.iter().enumerate().map(|(i, p)| Keyed { pos: p.0, idx: i as u32 }).collect();
+        hierarchy_sort(&mut keyed, self.params.node_points);
+        let positions: Vec<Vec3> = keyed.iter().map(|k| k.pos).collect();
+        let order: Vec<u32> = keyed.iter().map(|k| k.idx).collect();
+        drop(keyed);
+        self.timings.order += lap(&mut clock);
         let boxes = boxtree::build_boxes(&positions);
         let need_normal = |k: usize| merged[order[k] as usize].1 == Vec3::ZERO;
         let est = estimate::estimate(&positions, &boxes, self.params.knn, &need_normal)
             .ok_or_else(|| BuildError::Degenerate("fewer than 2 distinct points".into()))?;
         drop(boxes);
+        self.timings.estimate += lap(&mut clock);
         let mut work: Vec<Work> = Vec::with_capacity(positions.len());
         let mut spacing2 = Vec::with_capacity(positions.len());
         for (k, &o) in order.iter().enumerate() {
@@ -483,7 +536,9 @@ impl Ctx<'_> {
         }
         drop(merged);
         let mut h2 = spacing2;
-        self.split(&mut work, &mut h2)
+        let r = self.split(&mut work, &mut h2);
+        self.timings.nodes += lap(&mut clock);
+        r
     }
 
     /// Builds the subtree of one region (both halves of every split in parallel), then writes
@@ -540,6 +595,11 @@ struct SubtreeOut {
 
 fn make_node(mut w: Vec<Work>, children: Option<[u32; 2]>, spacing: f32) -> NodeOut {
     boxtree::sort_spatially(&mut w);
+    node_from_sorted(w, children, spacing)
+}
+
+/// A node from samples already in the order of its implicit box hierarchy.
+fn node_from_sorted(w: Vec<Work>, children: Option<[u32; 2]>, spacing: f32) -> NodeOut {
     let boxes = boxtree::build_boxes(&w);
     let splats: Vec<Splat> = w.iter().map(|s| Splat::new(s.pos, s.normal, s.radius, s.color)).collect();
     let stored = splats
@@ -560,26 +620,16 @@ fn parent_of(a: Vec<Work>, ha: f32, b: Vec<Work>, hb: f32, params: &BuildParams)
     make_node(simplified, None, spacing)
 }
 
-/// Splits until leaves hold at most M samples, building both halves in parallel.
+/// Cuts the subtree out of samples in [`hierarchy_sort`] order (leaves of at most M samples),
+/// building both halves in parallel.
 fn build_subtree(work: &mut [Work], h2: &mut [f32], params: &BuildParams) -> SubtreeOut {
     if work.len() <= params.node_points {
         let spacing = (h2.iter().map(|&x| f64::from(x)).sum::<f64>() / h2.len() as f64).sqrt() as f32;
-        let node = make_node(work.to_vec(), None, spacing);
+        let node = node_from_sorted(work.to_vec(), None, spacing);
         let samples = node.stored.clone();
         return SubtreeOut { nodes: vec![node], samples, spacing };
     }
-    let axis = choose_axis(work);
     let mid = work.len() / 2;
-    // Partition work and spacings together.
-    let mut idx: Vec<u32> = (0..work.len() as u32).collect();
-    idx.select_nth_unstable_by(mid, |&a, &b| {
-        work[a as usize].pos[axis].total_cmp(&work[b as usize].pos[axis])
-    });
-    let w2: Vec<Work> = idx.iter().map(|&i| work[i as usize]).collect();
-    let s2: Vec<f32> = idx.iter().map(|&i| h2[i as usize]).collect();
-    work.copy_from_slice(&w2);
-    h2.copy_from_slice(&s2);
-    drop((w2, s2, idx));
     let (wl, wr) = work.split_at_mut(mid);
     let (hl, hr) = h2.split_at_mut(mid);
     let (l, r) = rayon::join(|| build_subtree(wl, hl, params), || build_subtree(wr, hr, params));
@@ -597,25 +647,47 @@ fn build_subtree(work: &mut [Work], h2: &mut [f32], params: &BuildParams) -> Sub
     SubtreeOut { nodes, samples, spacing }
 }
 
-fn sort_keyed(v: &mut [(Vec3, u32)]) {
-    struct K(Vec3, u32);
-    impl boxtree::HasPosition for K {
-        fn position(&self) -> Vec3 {
-            self.0
-        }
+/// The bits of `x` as an unsigned integer ordered as [`f32::total_cmp`] orders floats.
+#[inline]
+fn ordered_bits(x: f32) -> u32 {
+    let b = x.to_bits();
+    if b >> 31 == 1 { !b } else { b | 1 << 31 }
+}
+
+/// A position and where it came from, for sorting a region once.
+#[derive(Clone, Copy)]
+struct Keyed {
+    pos: Vec3,
+    idx: u32,
+}
+
+impl boxtree::HasPosition for Keyed {
+    #[inline]
+    fn position(&self) -> Vec3 {
+        self.pos
     }
-    let mut k: Vec<K> = v.iter().map(|&(p, i)| K(p, i)).collect();
-    boxtree::sort_spatially(&mut k);
-    for (dst, src) in v.iter_mut().zip(k) {
-        *dst = (src.0, src.1);
+}
+
+/// Orders `items` as the hierarchy is cut: ranges of more than `node_points` items are split at
+/// their middle index by a median partition along [`choose_axis`] (the node kd-tree); a range
+/// of at most `node_points` (a leaf node) is sorted for its implicit box hierarchy.
+fn hierarchy_sort<T: boxtree::HasPosition + Send>(items: &mut [T], node_points: usize) {
+    if items.len() <= node_points {
+        boxtree::sort_spatially(items);
+        return;
     }
+    let axis = choose_axis(items);
+    let mid = items.len() / 2;
+    items.select_nth_unstable_by(mid, |a, b| a.position()[axis].total_cmp(&b.position()[axis]));
+    let (l, r) = items.split_at_mut(mid);
+    rayon::join(|| hierarchy_sort(l, node_points), || hierarchy_sort(r, node_points));
 }
 
 /// Split axis (balsa12 §4): candidates are median splits (perfectly balanced) along every axis
 /// whose extent is at least half the longest; among them, the one whose children are the most
 /// compact (smallest worst ratio between the two largest extents of a child's box).
-fn choose_axis(work: &[Work]) -> usize {
-    let bbox = Aabb::from_points(work.iter().map(|w| w.pos));
+fn choose_axis<T: boxtree::HasPosition>(work: &[T]) -> usize {
+    let bbox = Aabb::from_points(work.iter().map(boxtree::HasPosition::position));
     let ext = bbox.extent();
     let longest = ext.max_element();
     let mut best = (f32::INFINITY, ext.max_position());
@@ -627,12 +699,14 @@ fn choose_axis(work: &[Work]) -> usize {
         if ext[axis] < 0.5 * longest || ext[axis] <= 0.0 {
             continue;
         }
-        let mut vals: Vec<f32> = work.iter().map(|w| w.pos[axis]).collect();
+        let mut vals: Vec<f32> = work.iter().map(|w| w.position()[axis]).collect();
         let mid = vals.len() / 2;
         let (_, &mut at, _) = vals.select_nth_unstable_by(mid, f32::total_cmp);
         let mut worst: f32 = 0.0;
         for side in [false, true] {
-            let b = Aabb::from_points(work.iter().filter(|w| (w.pos[axis] >= at) == side).map(|w| w.pos));
+            let b = Aabb::from_points(
+                work.iter().map(boxtree::HasPosition::position).filter(|p| (p[axis] >= at) == side),
+            );
             let mut e = b.extent().to_array();
             e.sort_by(f32::total_cmp);
             let ratio = if e[1] > 0.0 { e[2] / e[1] } else { f32::INFINITY };
@@ -647,42 +721,53 @@ fn choose_axis(work: &[Work]) -> usize {
 
 /// Reduces `pts` to `target` samples by collapsing near pairs with compatible normals
 /// (bettio09 §3: shortest edges first; balsa12 §4: nearest neighbour with a compatible normal).
-/// Each pass sorts the samples spatially; within each leaf of the implicit box hierarchy (fewer
-/// than 16 spatially close samples) it matches pairs greedily, shortest first; the candidate
-/// pairs of all leaves are then collapsed shortest first until `target` remain. A pass nearly
-/// halves the samples, so 2M → M takes one or two passes.
+/// Each pass takes the samples in spatial order; within each leaf of the implicit box hierarchy
+/// (fewer than 16 spatially close samples) it matches pairs greedily, shortest first; the
+/// candidate pairs of all leaves are then collapsed shortest first until `target` remain. A pass
+/// nearly halves the samples, so 2M → M takes one or two passes.
 /// Merged sample: midpoint; normal and colour weighted by splat area; radius covering both.
+///
+/// The input is the concatenation of two nodes, each in the order of its implicit hierarchy (the
+/// two halves of a kd split): already a spatial order, so only later passes sort.
 fn simplify(mut pts: Vec<Work>, target: usize, normal_cos: f32) -> Vec<Work> {
     let mut require_compatible = true;
+    let mut sorted = true;
     while pts.len() > target {
-        boxtree::sort_spatially(&mut pts);
+        if !std::mem::replace(&mut sorted, false) {
+            boxtree::sort_spatially(&mut pts);
+        }
         let ranges = boxtree::leaf_ranges(pts.len());
-        let mut edges: Vec<(f32, u32, u32)> = ranges
+        // (squared length bits << 32 | i, j): sorting the key sorts by length, then i.
+        let mut edges: Vec<(u64, u32)> = ranges
             .par_iter()
             .flat_map_iter(|&(lo, hi)| {
                 let leaf = &pts[lo..hi];
-                let mut cand: Vec<(f32, u8, u8)> = Vec::with_capacity(leaf.len() * leaf.len() / 2);
+                // (squared length, i, j) packed in one integer: squared lengths are finite and
+                // non-negative, so their bits sort as the numbers do.
+                let mut cand: Vec<u64> = Vec::with_capacity(leaf.len() * leaf.len() / 2);
                 for i in 0..leaf.len() {
                     for j in i + 1..leaf.len() {
                         if !require_compatible || leaf[i].normal.dot(leaf[j].normal) >= normal_cos {
-                            cand.push(((leaf[i].pos - leaf[j].pos).length_squared(), i as u8, j as u8));
+                            let d2 = (leaf[i].pos - leaf[j].pos).length_squared();
+                            cand.push(u64::from(d2.to_bits()) << 32 | (i as u64) << 8 | j as u64);
                         }
                     }
                 }
-                cand.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+                cand.sort_unstable();
                 let mut used = [false; boxtree::LEAF_POINTS];
                 let mut out = Vec::with_capacity(leaf.len() / 2);
-                for (d2, i, j) in cand {
-                    if !used[i as usize] && !used[j as usize] {
-                        used[i as usize] = true;
-                        used[j as usize] = true;
-                        out.push((d2, lo as u32 + u32::from(i), lo as u32 + u32::from(j)));
+                for c in cand {
+                    let (i, j) = ((c >> 8) as u8 as usize, c as u8 as usize);
+                    if !used[i] && !used[j] {
+                        used[i] = true;
+                        used[j] = true;
+                        out.push(((c & !0xffff_ffff) | (lo + i) as u64, (lo + j) as u32));
                     }
                 }
                 out
             })
             .collect();
-        edges.par_sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        edges.par_sort_unstable_by_key(|e| e.0);
         let needed = pts.len() - target;
         edges.truncate(needed);
         if edges.is_empty() {
@@ -695,7 +780,8 @@ fn simplify(mut pts: Vec<Work>, target: usize, normal_cos: f32) -> Vec<Work> {
         }
         let mut used = vec![false; pts.len()];
         let mut out = Vec::with_capacity(pts.len() - edges.len());
-        for &(_, i, j) in &edges {
+        for &(key, j) in &edges {
+            let i = key as u32;
             used[i as usize] = true;
             used[j as usize] = true;
             out.push(merge(&pts[i as usize], &pts[j as usize]));
@@ -718,5 +804,80 @@ fn merge(a: &Work, b: &Work) -> Work {
         normal,
         radius: (a.pos - b.pos).length() * 0.5 + a.radius.max(b.radius),
         color,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ordered_bits_order_floats_as_total_cmp() {
+        let xs = [
+            f32::NEG_INFINITY,
+            -1e30,
+            -1.5,
+            -f32::MIN_POSITIVE,
+            -1e-45,
+            -0.0,
+            0.0,
+            1e-45,
+            f32::MIN_POSITIVE,
+            1.0,
+            1.0000001,
+            6.5e12,
+            f32::INFINITY,
+        ];
+        for a in xs {
+            for b in xs {
+                assert_eq!(ordered_bits(a).cmp(&ordered_bits(b)), a.total_cmp(&b), "{a} vs {b}");
+            }
+        }
+    }
+
+    #[test]
+    fn hierarchy_order_cuts_nodes_at_middles_and_sorts_each_leaf_node() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(5);
+        let mut pts: Vec<Vec3> = (0..5000)
+            .map(|_| Vec3::new(rng.random(), rng.random::<f32>() * 4.0, rng.random::<f32>() * 0.2))
+            .collect();
+        let before = pts.clone();
+        hierarchy_sort(&mut pts, 1000);
+        // A permutation: nothing lost, nothing invented.
+        let key = |v: &Vec3| v.to_array().map(f32::to_bits);
+        let (mut a, mut b) =
+            (before.iter().map(key).collect::<Vec<_>>(), pts.iter().map(key).collect::<Vec<_>>());
+        a.sort_unstable();
+        b.sort_unstable();
+        assert_eq!(a, b);
+        // Every cut, of the node kd-tree and of each leaf node's box hierarchy (down to its
+        // leaves of < 16 points), is a median split: its halves are separated along one axis.
+        fn separated(l: &[Vec3], r: &[Vec3]) -> bool {
+            (0..3).any(|axis| {
+                let lmax = l.iter().map(|v| v[axis]).fold(f32::NEG_INFINITY, f32::max);
+                let rmin = r.iter().map(|v| v[axis]).fold(f32::INFINITY, f32::min);
+                lmax <= rmin
+            })
+        }
+        fn boxes(p: &[Vec3], depth_left: u32) {
+            if depth_left > 0 {
+                let (l, r) = p.split_at(p.len() / 2);
+                assert!(separated(l, r), "a box split of {} points does not separate its halves", p.len());
+                boxes(l, depth_left - 1);
+                boxes(r, depth_left - 1);
+            }
+        }
+        fn check(p: &[Vec3], m: usize) {
+            if p.len() <= m {
+                boxes(p, boxtree::depth_for(p.len()));
+                return;
+            }
+            let (l, r) = p.split_at(p.len() / 2);
+            assert!(separated(l, r), "a node cut of {} points does not separate its halves", p.len());
+            check(l, m);
+            check(r, m);
+        }
+        check(&pts, 1000);
     }
 }

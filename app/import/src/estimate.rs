@@ -8,8 +8,7 @@
 //! - radius = `radius_factor` × h (0.8 covers a square grid of step h, whose worst gap is h/√2).
 
 use glam::{Mat3, Vec3};
-use kiosk_core::scene::boxtree::{self, BoxTree, KBest};
-use rayon::prelude::*;
+use kiosk_core::scene::boxtree::{self, PathStep};
 
 /// Eigen-decomposition of a symmetric 3×3 matrix by cyclic Jacobi rotations: eigenvalues in
 /// ascending order with their unit eigenvectors.
@@ -70,9 +69,18 @@ pub struct Estimate {
     pub spacing: f32,
 }
 
+/// Most neighbours [`estimate`] can use.
+pub const MAX_K: usize = 32;
+
 /// Estimates spacing, and the normal where `need_normal` says so (others get zero), for every
 /// point of `positions` (spatially sorted, with `boxes` from [`boxtree::build_boxes`]) from its
-/// `k` nearest neighbours. `None` when there are fewer than two distinct points.
+/// `k` nearest neighbours (clamped to 2..=[`MAX_K`]). `None` when there are fewer than two
+/// distinct points.
+///
+/// The search is exact and batched by leaf of the implicit hierarchy: the points of a leaf
+/// first scan the block around it (the subtree [`BLOCK_UP`] levels up, ~16·2^BLOCK_UP points),
+/// which bounds each one's k-th distance; one walk of the boxes then visits only the leaves
+/// outside the block that some of those balls reach.
 pub fn estimate(
     positions: &[Vec3],
     boxes: &[kiosk_core::Aabb],
@@ -82,41 +90,205 @@ pub fn estimate(
     if positions.len() < 2 {
         return None;
     }
-    let tree = BoxTree::new(positions, boxes);
-    let k = k.clamp(2, positions.len() - 1);
+    let k = k.clamp(2, (positions.len() - 1).min(MAX_K));
     let centroid = positions.iter().fold(Vec3::ZERO, |a, p| a + *p) / positions.len() as f32;
-    let paths = boxtree::leaf_paths(positions.len());
-    let out = paths
-        .par_iter()
-        .flat_map_iter(|path| {
-            let leaf = path[path.len() - 1];
-            (leaf.lo..leaf.hi).map(move |i| (i, path))
-        })
-        .map(|(idx, path)| {
-            let p = positions[idx];
-            let mut best = KBest::new(k + 1);
-            tree.knn_from_leaf(p, path, &mut best, &|i| i);
-            let neigh = &best.items()[1..]; // the first is the point itself (duplicates are merged)
-            let dk = neigh.last().map_or(0.0, |x| x.0.sqrt());
-            let spacing = dk * (std::f32::consts::PI / k as f32).sqrt();
-            if !need_normal(idx) {
-                return Estimate { normal: Vec3::ZERO, spacing };
-            }
-            let mean =
-                neigh.iter().fold(p, |a, &(_, i)| a + positions[i as usize]) / (neigh.len() + 1) as f32;
-            let mut cov = Mat3::ZERO;
-            for q in std::iter::once(p).chain(neigh.iter().map(|&(_, i)| positions[i as usize])) {
-                let d = q - mean;
-                cov += Mat3::from_cols(d * d.x, d * d.y, d * d.z);
-            }
-            let mut n = symmetric_eigen(cov)[0].1;
-            if n.dot(p - centroid) < 0.0 {
-                n = -n;
-            }
-            Estimate { normal: n, spacing }
-        })
-        .collect();
+    let search = LeafSearch { positions, boxes, k: k + 1 };
+    let job = Job { search, centroid, need_normal };
+    let mut out = vec![Estimate { normal: Vec3::ZERO, spacing: 0.0 }; positions.len()];
+    let root =
+        PathStep { index: 0, lo: 0, hi: positions.len(), depth_left: boxtree::depth_for(positions.len()) };
+    job.descend(root, &mut Vec::with_capacity(64), &mut out);
     Some(out)
+}
+
+/// Ranges at least this long are split between threads.
+const PARALLEL_POINTS: usize = 4096;
+
+struct Job<'a> {
+    search: LeafSearch<'a>,
+    centroid: Vec3,
+    need_normal: &'a (dyn Fn(usize) -> bool + Sync),
+}
+
+impl Job<'_> {
+    /// Estimates the points of `step`'s range into `out` (that range), `path` leading to `step`.
+    fn descend(&self, step: PathStep, path: &mut Vec<PathStep>, out: &mut [Estimate]) {
+        path.push(step);
+        if step.depth_left == 0 {
+            let mut best = [TopK::new(self.search.k); boxtree::LEAF_POINTS];
+            let best = &mut best[..step.hi - step.lo];
+            self.search.leaf(path, best);
+            for ((o, idx), b) in out.iter_mut().zip(step.lo..step.hi).zip(best.iter()) {
+                *o = self.finish(idx, b);
+            }
+        } else {
+            let mid = step.lo + (step.hi - step.lo) / 2;
+            let d = step.depth_left - 1;
+            let l = PathStep { index: 2 * step.index + 1, lo: step.lo, hi: mid, depth_left: d };
+            let r = PathStep { index: 2 * step.index + 2, lo: mid, hi: step.hi, depth_left: d };
+            let (ol, or) = out.split_at_mut(mid - step.lo);
+            if step.hi - step.lo >= PARALLEL_POINTS {
+                let mut other = path.clone();
+                rayon::join(|| self.descend(l, path, ol), || self.descend(r, &mut other, or));
+            } else {
+                self.descend(l, path, ol);
+                self.descend(r, path, or);
+            }
+        }
+        path.pop();
+    }
+
+    /// Spacing and normal of point `idx` from its nearest (itself first: duplicates are merged).
+    fn finish(&self, idx: usize, best: &TopK) -> Estimate {
+        let positions = self.search.positions;
+        let k = self.search.k - 1;
+        let p = positions[idx];
+        let neigh = &best.idx[1..best.n];
+        let dk = best.d2[best.n - 1].sqrt();
+        let spacing = dk * (std::f32::consts::PI / k as f32).sqrt();
+        if !(self.need_normal)(idx) {
+            return Estimate { normal: Vec3::ZERO, spacing };
+        }
+        let mean = neigh.iter().fold(p, |a, &i| a + positions[i as usize]) / (neigh.len() + 1) as f32;
+        let mut cov = Mat3::ZERO;
+        for q in std::iter::once(p).chain(neigh.iter().map(|&i| positions[i as usize])) {
+            let d = q - mean;
+            cov += Mat3::from_cols(d * d.x, d * d.y, d * d.z);
+        }
+        let mut n = symmetric_eigen(cov)[0].1;
+        if n.dot(p - self.centroid) < 0.0 {
+            n = -n;
+        }
+        Estimate { normal: n, spacing }
+    }
+}
+
+/// Levels above a leaf of the block every point of the leaf scans first.
+pub const BLOCK_UP: usize = 2;
+
+/// The k nearest found so far (fixed capacity, sorted by squared distance).
+#[derive(Clone, Copy)]
+struct TopK {
+    n: usize,
+    k: usize,
+    d2: [f32; MAX_K + 1],
+    idx: [u32; MAX_K + 1],
+}
+
+impl TopK {
+    fn new(k: usize) -> Self {
+        Self { n: 0, k, d2: [f32::INFINITY; MAX_K + 1], idx: [0; MAX_K + 1] }
+    }
+
+    #[inline]
+    fn bound(&self) -> f32 {
+        if self.n < self.k { f32::INFINITY } else { self.d2[self.k - 1] }
+    }
+
+    #[inline]
+    fn offer(&mut self, d2: f32, i: u32) {
+        if d2 >= self.bound() {
+            return;
+        }
+        // Insertion from the end; equal distances keep the earlier offer first.
+        let mut at = self.n.min(self.k - 1);
+        while at > 0 && self.d2[at - 1] > d2 {
+            self.d2[at] = self.d2[at - 1];
+            self.idx[at] = self.idx[at - 1];
+            at -= 1;
+        }
+        self.d2[at] = d2;
+        self.idx[at] = i;
+        self.n = (self.n + 1).min(self.k);
+    }
+}
+
+struct LeafSearch<'a> {
+    positions: &'a [Vec3],
+    boxes: &'a [kiosk_core::Aabb],
+    k: usize,
+}
+
+impl LeafSearch<'_> {
+    /// The k nearest (the point itself included) of every point of the leaf ending `path`, into
+    /// `best` (one empty set per point of the leaf).
+    fn leaf(&self, path: &[PathStep], best: &mut [TopK]) {
+        let leaf = path[path.len() - 1];
+        let block = path[path.len().saturating_sub(1 + BLOCK_UP)];
+        let qs = &self.positions[leaf.lo..leaf.hi];
+        for (b, &q) in best.iter_mut().zip(qs) {
+            for (j, p) in self.positions[block.lo..block.hi].iter().enumerate() {
+                b.offer((*p - q).length_squared(), (block.lo + j) as u32);
+            }
+        }
+        // The region every ball lies in; start from the lowest ancestor of the block whose box
+        // strictly contains it (points of other subtrees lie beyond a split plane of the path).
+        let mut region = kiosk_core::Aabb::EMPTY;
+        for (b, &q) in best.iter().zip(qs) {
+            let r = b.bound().sqrt();
+            region = region.union(kiosk_core::Aabb { min: q - r, max: q + r });
+        }
+        // The block itself first: a region strictly inside its box needs nothing more.
+        let block_at = path.len().saturating_sub(1 + BLOCK_UP);
+        let start = path[..=block_at]
+            .iter()
+            .rev()
+            .find(|s| {
+                let b = &self.boxes[s.index];
+                region.min.is_finite() && region.min.cmpgt(b.min).all() && region.max.cmplt(b.max).all()
+            })
+            .copied();
+        match start {
+            Some(s) if s.index == block.index => {}
+            Some(s) => self.walk(qs, best, &region, s, (block.lo, block.hi)),
+            None if block.index != 0 => self.walk(qs, best, &region, path[0], (block.lo, block.hi)),
+            None => {}
+        }
+    }
+
+    /// Visits the leaves under `step` outside `skip` whose box is within some query's bound.
+    fn walk(
+        &self,
+        qs: &[Vec3],
+        best: &mut [TopK],
+        region: &kiosk_core::Aabb,
+        step: PathStep,
+        skip: (usize, usize),
+    ) {
+        let b = &self.boxes[step.index];
+        if b.max.cmplt(region.min).any() || b.min.cmpgt(region.max).any() {
+            return;
+        }
+        if step.lo >= skip.0 && step.hi <= skip.1 {
+            return;
+        }
+        if step.depth_left == 0 {
+            for (t, &q) in best.iter_mut().zip(qs) {
+                if b.distance_squared(q) < t.bound() {
+                    for (j, p) in self.positions[step.lo..step.hi].iter().enumerate() {
+                        t.offer((*p - q).length_squared(), (step.lo + j) as u32);
+                    }
+                }
+            }
+            return;
+        }
+        let mid = step.lo + (step.hi - step.lo) / 2;
+        let d = step.depth_left - 1;
+        self.walk(
+            qs,
+            best,
+            region,
+            PathStep { index: 2 * step.index + 1, lo: step.lo, hi: mid, depth_left: d },
+            skip,
+        );
+        self.walk(
+            qs,
+            best,
+            region,
+            PathStep { index: 2 * step.index + 2, lo: mid, hi: step.hi, depth_left: d },
+            skip,
+        );
+    }
 }
 
 /// Spatially sorts positions and builds their boxes (helper for [`estimate`]).
@@ -149,6 +321,37 @@ mod tests {
         assert!(e[0].1.dot(expect).abs() > 0.9999, "{:?}", e);
         assert!(e[0].0.abs() < 1e-3 * e[2].0);
         assert!(e[0].0 <= e[1].0 && e[1].0 <= e[2].0);
+    }
+
+    #[test]
+    fn batched_neighbours_match_brute_force() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(11);
+        // A thin, uneven cloud: dense and sparse parts, so balls cross many leaves.
+        let mut pts: Vec<Vec3> = (0..6000)
+            .map(|i| {
+                let s = if i % 3 == 0 { 0.1 } else { 1.0 };
+                Vec3::new(rng.random::<f32>() * s, rng.random::<f32>() * 3.0 * s, rng.random::<f32>() * 0.05)
+            })
+            .collect();
+        let boxes = sorted_tree(&mut pts);
+        let paths = boxtree::leaf_paths(pts.len());
+        for k in [2usize, 12, MAX_K] {
+            let search = LeafSearch { positions: &pts, boxes: &boxes, k: k + 1 };
+            for path in &paths {
+                let leaf = path[path.len() - 1];
+                let mut found = vec![TopK::new(k + 1); leaf.hi - leaf.lo];
+                search.leaf(path, &mut found);
+                for (q, got) in (leaf.lo..leaf.hi).zip(found) {
+                    let mut brute: Vec<f32> = pts.iter().map(|p| (*p - pts[q]).length_squared()).collect();
+                    brute.sort_by(f32::total_cmp);
+                    assert_eq!(&got.d2[..got.n], &brute[..k + 1], "point {q}, k {k}");
+                    for (&i, &d2) in got.idx[..got.n].iter().zip(&got.d2) {
+                        assert_eq!((pts[i as usize] - pts[q]).length_squared(), d2);
+                    }
+                }
+            }
+        }
     }
 
     #[test]
