@@ -452,7 +452,7 @@ impl Ctx<'_> {
         let mut clock = std::time::Instant::now();
         let n_in = recs.len() as u64;
         let mut pts: Vec<(Vec3, Vec3, [u8; 4], f32)> = recs
-            .iter()
+            .par_iter()
             .map(|r| {
                 ((DVec3::from_array(r.pos) - origin).as_vec3(), Vec3::from_array(r.normal), r.color, r.radius)
             })
@@ -461,7 +461,7 @@ impl Ctx<'_> {
         // integer per sample sorts them: the three coordinates (bits in the order of `total_cmp`)
         // then the sample's index, so a run of equal positions is contiguous and in input order.
         let mut keys: Vec<u128> = pts
-            .iter()
+            .par_iter()
             .enumerate()
             .map(|(i, p)| {
                 let [x, y, z] = p.0.to_array().map(|c| u128::from(ordered_bits(c)));
@@ -510,7 +510,7 @@ impl Ctx<'_> {
         // the implicit box hierarchy of each node under it. Estimation searches the whole region
         // in this order, and the subtree is cut from it without moving a sample again.
         let mut keyed: Vec<Keyed> =
-            merged.iter().enumerate().map(|(i, p)| Keyed { pos: p.0, idx: i as u32 }).collect();
+            merged.par_iter().enumerate().map(|(i, p)| Keyed { pos: p.0, idx: i as u32 }).collect();
         hierarchy_sort(&mut keyed, self.params.node_points);
         let positions: Vec<Vec3> = keyed.iter().map(|k| k.pos).collect();
         let order: Vec<u32> = keyed.iter().map(|k| k.idx).collect();
@@ -522,18 +522,19 @@ impl Ctx<'_> {
             .ok_or_else(|| BuildError::Degenerate("fewer than 2 distinct points".into()))?;
         drop(boxes);
         self.timings.estimate += lap(&mut clock);
-        let mut work: Vec<Work> = Vec::with_capacity(positions.len());
-        let mut spacing2 = Vec::with_capacity(positions.len());
-        for (k, &o) in order.iter().enumerate() {
-            let (pos, nrm, color, min_radius) = merged[o as usize];
-            let Estimate { normal, spacing } = est[k];
-            let n = if nrm == Vec3::ZERO { normal } else { nrm };
-            // A lone point far from the rest still gets a finite, positive radius.
-            let h = if spacing > 0.0 && spacing.is_finite() { spacing } else { f32::MIN_POSITIVE };
-            spacing2.push(h * h);
-            let radius = (self.params.radius_factor * h).max(min_radius);
-            work.push(Work { pos, normal: n, radius, color });
-        }
+        let radius_factor = self.params.radius_factor;
+        let (mut work, spacing2): (Vec<Work>, Vec<f32>) = order
+            .par_iter()
+            .zip(&est)
+            .map(|(&o, &Estimate { normal, spacing })| {
+                let (pos, nrm, color, min_radius) = merged[o as usize];
+                let n = if nrm == Vec3::ZERO { normal } else { nrm };
+                // A lone point far from the rest still gets a finite, positive radius.
+                let h = if spacing > 0.0 && spacing.is_finite() { spacing } else { f32::MIN_POSITIVE };
+                let radius = (radius_factor * h).max(min_radius);
+                (Work { pos, normal: n, radius, color }, h * h)
+            })
+            .unzip();
         drop(merged);
         let mut h2 = spacing2;
         let r = self.split(&mut work, &mut h2);

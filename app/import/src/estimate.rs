@@ -216,9 +216,21 @@ impl LeafSearch<'_> {
         let leaf = path[path.len() - 1];
         let block = path[path.len().saturating_sub(1 + BLOCK_UP)];
         let qs = &self.positions[leaf.lo..leaf.hi];
+        // Nearest ranges first (the leaf, then outwards through the block): the bound tightens
+        // early and most later candidates are turned away by one comparison.
+        let mut ranges = [(0usize, 0usize); BLOCK_UP + 1];
+        ranges[0] = (leaf.lo, leaf.hi);
+        for (r, pair) in
+            ranges[1..].iter_mut().zip(path[path.len() - 1 - BLOCK_UP.min(path.len() - 1)..].windows(2).rev())
+        {
+            let (parent, child) = (pair[0], pair[1]);
+            *r = if child.lo == parent.lo { (child.hi, parent.hi) } else { (parent.lo, child.lo) };
+        }
         for (b, &q) in best.iter_mut().zip(qs) {
-            for (j, p) in self.positions[block.lo..block.hi].iter().enumerate() {
-                b.offer((*p - q).length_squared(), (block.lo + j) as u32);
+            for &(lo, hi) in &ranges {
+                for (j, p) in self.positions[lo..hi].iter().enumerate() {
+                    b.offer((*p - q).length_squared(), (lo + j) as u32);
+                }
             }
         }
         // The region every ball lies in; start from the lowest ancestor of the block whose box
