@@ -271,12 +271,22 @@ impl Builder {
                 let top = TopTree::build(&self.reservoir, self.count, params.chunk_points / 2);
                 let chunks = top.leaves();
                 let files = distribute(tmp.path(), &top, self.count, &self.tmp_dir, ctx.progress)?;
+                drop(tmp);
                 ctx.timings.distribute += lap(&mut clock);
-                (
-                    ctx.top(&top, 0, &files, origin)?
-                        .ok_or_else(|| BuildError::Degenerate("no samples reached any region".into()))?,
-                    chunks,
-                )
+                // A reader thread loads the next region while this one is processed (one region
+                // ahead: memory stays bounded); each region file is deleted once read.
+                let root = std::thread::scope(|scope| {
+                    let (tx, rx) = std::sync::mpsc::sync_channel(1);
+                    scope.spawn(move || {
+                        for f in files {
+                            if tx.send(read_region(f.path())).is_err() {
+                                break;
+                            }
+                        }
+                    });
+                    ctx.top(&top, &rx, origin)
+                })?;
+                (root.ok_or_else(|| BuildError::Degenerate("no samples reached any region".into()))?, chunks)
             }
         };
         let timings = ctx.timings;
@@ -389,6 +399,15 @@ fn distribute(
     outs.into_iter().map(|w| w.into_inner().map_err(|e| BuildError::Io(e.into_error()))).collect()
 }
 
+/// The samples of one region file.
+fn read_region(path: &Path) -> std::io::Result<Vec<RawRec>> {
+    let mut file = File::open(path)?;
+    let len = file.metadata()?.len() as usize;
+    let mut recs = vec![RawRec::zeroed(); len / std::mem::size_of::<RawRec>()];
+    file.read_exact(bytemuck::cast_slice_mut(&mut recs))?;
+    Ok(recs)
+}
+
 fn read_full(r: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
     let mut n = 0;
     while n < buf.len() {
@@ -417,28 +436,26 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
+    /// Builds the regions under `t`, in order, from the region files `regions` delivers in the
+    /// same order, and joins them.
     fn top(
         &mut self,
         t: &TopTree,
-        _depth: usize,
-        files: &[tempfile::NamedTempFile],
+        regions: &std::sync::mpsc::Receiver<std::io::Result<Vec<RawRec>>>,
         origin: DVec3,
     ) -> Result<Option<Sub>, BuildError> {
         match t {
-            TopTree::Leaf(i) => {
-                let mut bytes = Vec::new();
-                File::open(files[*i].path())?.read_to_end(&mut bytes)?;
-                if bytes.is_empty() {
+            TopTree::Leaf(_) => {
+                let recs =
+                    regions.recv().map_err(|_| std::io::Error::other("the region reader stopped"))??;
+                if recs.is_empty() {
                     return Ok(None);
                 }
-                let mut recs = vec![RawRec::zeroed(); bytes.len() / std::mem::size_of::<RawRec>()];
-                bytemuck::cast_slice_mut::<RawRec, u8>(&mut recs).copy_from_slice(&bytes);
-                drop(bytes);
                 self.region(&recs, origin).map(Some)
             }
             TopTree::Split { children, .. } => {
-                let l = self.top(&children[0], _depth + 1, files, origin)?;
-                let r = self.top(&children[1], _depth + 1, files, origin)?;
+                let l = self.top(&children[0], regions, origin)?;
+                let r = self.top(&children[1], regions, origin)?;
                 match (l, r) {
                     (Some(a), Some(b)) => self.join(a, b).map(Some),
                     (a, b) => Ok(a.or(b)),
