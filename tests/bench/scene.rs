@@ -1,4 +1,4 @@
-//! `cargo bench --bench scene [-- --points N[,N…]] [--quick]`: the scene's numbers.
+//! `cargo bench --bench scene [-- --points N[,N…]] [--quick] [--tradeoff-only]`: the scene's numbers.
 //!
 //! Prints tables (and writes `target/bench/scene-tradeoff.svg`):
 //! 1. build throughput and peak RSS: a real scan and synthetic statue-like clouds (10 M by
@@ -28,6 +28,11 @@ fn main() -> anyhow::Result<()> {
         return child_build(&args[i + 1], args[i + 2].parse()?, &args[i + 3]);
     }
     let quick = args.iter().any(|a| a == "--quick");
+    if args.iter().any(|a| a == "--tradeoff-only") {
+        let out_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench");
+        std::fs::create_dir_all(&out_dir)?;
+        return tradeoff(&real_scan(), &out_dir, quick);
+    }
     let sizes: Vec<u64> = args
         .iter()
         .position(|a| a == "--points")
@@ -352,6 +357,8 @@ fn tradeoff(scan: &Path, out_dir: &Path, quick: bool) -> anyhow::Result<()> {
         series_m.push((format!("M={m}"), us, e95));
     }
 
+    knn_tradeoff(&pts, dir.path())?;
+
     println!("\n## Speed against accuracy: search depth and K of the fine target (M = 8192)");
     println!("| K | depth | µs per query | error median (spacings) | error p95 |");
     println!("|---|---|---|---|---|");
@@ -377,6 +384,73 @@ fn tradeoff(scan: &Path, out_dir: &Path, quick: bool) -> anyhow::Result<()> {
     let svg = out_dir.join("scene-tradeoff.svg");
     plot(&svg, &series_m, &series_k)?;
     println!("\nplot: {}", svg.display());
+    Ok(())
+}
+
+/// The neighbours k of normal and spacing estimation against its time and the normals' error:
+/// the scan is built without its normals (estimated by PCA) and every full-resolution sample's
+/// normal is compared with the area-weighted normal of the mesh at that vertex (unoriented: the
+/// renderer lights both sides).
+fn knn_tradeoff(pts: &[InputPoint], dir: &Path) -> anyhow::Result<()> {
+    println!(
+        "\n## Speed against accuracy: neighbours k of the estimation (scan without its normals, M = 8192)"
+    );
+    println!(
+        "| k | estimate s | build s | normal error median ° | p90 ° | p99 ° | median radius / radius at k = 12 |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    let mut reference: Option<std::collections::HashMap<[u32; 3], Vec3>> = None;
+    let mut radius_12 = f64::NAN;
+    let mut rows = Vec::new();
+    for k in [6usize, 8, 12, 16, 24] {
+        let out = dir.join(format!("k{k}.kstore"));
+        let t = Instant::now();
+        let mut b = Builder::new(BuildParams { knn: k, ..BuildParams::default() }, dir)?;
+        for p in pts {
+            b.push(InputPoint { normal: Vec3::ZERO, ..*p })?;
+        }
+        let s = b.finish(&out, &mut |_| {})?;
+        let build_s = t.elapsed().as_secs_f64();
+        let store = kiosk::open_store(&out)?;
+        // Leaf samples are the input positions in local f32 coordinates: find each one's vertex.
+        let reference = reference.get_or_insert_with(|| {
+            pts.iter().map(|p| (store.to_local(p.pos).to_array().map(f32::to_bits), p.normal)).collect()
+        });
+        let (mut errs, mut radii, mut unmatched) = (Vec::new(), Vec::new(), 0usize);
+        for id in 0..store.nodes().len() as u32 {
+            if !store.node(id).is_leaf() {
+                continue;
+            }
+            for sp in store.splats(id) {
+                match reference.get(&sp.position().to_array().map(f32::to_bits)) {
+                    Some(n) if *n != Vec3::ZERO => {
+                        errs.push(f64::from(sp.normal().dot(*n).abs().min(1.0).acos().to_degrees()))
+                    }
+                    _ => unmatched += 1,
+                }
+                radii.push(f64::from(sp.radius));
+            }
+        }
+        if unmatched > 0 {
+            println!("(k = {k}: {unmatched} samples without a mesh normal)");
+        }
+        let r = median(radii);
+        if k == 12 {
+            radius_12 = r;
+        }
+        rows.push((
+            k,
+            s.timings.estimate.as_secs_f64(),
+            build_s,
+            median(errs.clone()),
+            pct(errs.clone(), 0.9),
+            pct(errs, 0.99),
+            r,
+        ));
+    }
+    for (k, est, build_s, e50, e90, e99, r) in rows {
+        println!("| {k} | {est:.2} | {build_s:.2} | {e50:.2} | {e90:.2} | {e99:.2} | {:.3} |", r / radius_12);
+    }
     Ok(())
 }
 
