@@ -25,7 +25,7 @@ use kiosk_core::{Aabb, Splat};
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use std::fs::File;
-use std::io::{BufReader, BufWriter, Read, Write};
+use std::io::{BufWriter, Read, Write};
 use std::path::Path;
 
 /// Settings of the builder.
@@ -169,7 +169,68 @@ impl boxtree::HasPosition for Work {
 
 enum Spill {
     Memory(Vec<RawRec>),
-    Disk { file: BufWriter<tempfile::NamedTempFile> },
+    Disk(SpillWriter),
+}
+
+/// Samples per batch handed to the spill writer.
+const SPILL_BATCH: usize = 1 << 16;
+
+/// Writes the spill file on a thread of its own, so that reading the input and writing the spill
+/// overlap. Batches queue up to a few (memory stays bounded).
+struct SpillWriter {
+    batch: Vec<RawRec>,
+    tx: Option<std::sync::mpsc::SyncSender<Vec<RawRec>>>,
+    thread: Option<std::thread::JoinHandle<std::io::Result<tempfile::NamedTempFile>>>,
+}
+
+impl SpillWriter {
+    /// Starts the file with `first`.
+    fn start(tmp_dir: &Path, first: Vec<RawRec>) -> std::io::Result<Self> {
+        let mut file = tempfile::NamedTempFile::new_in(tmp_dir)?;
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<RawRec>>(4);
+        let thread = std::thread::Builder::new().name("spill".into()).spawn(move || {
+            for batch in rx {
+                file.write_all(bytemuck::cast_slice(&batch))?;
+            }
+            Ok(file)
+        })?;
+        let mut w = Self { batch: Vec::with_capacity(SPILL_BATCH), tx: Some(tx), thread: Some(thread) };
+        w.send(first)?;
+        Ok(w)
+    }
+
+    fn push(&mut self, r: RawRec) -> std::io::Result<()> {
+        self.batch.push(r);
+        if self.batch.len() >= SPILL_BATCH {
+            let batch = std::mem::replace(&mut self.batch, Vec::with_capacity(SPILL_BATCH));
+            self.send(batch)?;
+        }
+        Ok(())
+    }
+
+    fn send(&mut self, batch: Vec<RawRec>) -> std::io::Result<()> {
+        match &self.tx {
+            Some(tx) if tx.send(batch).is_ok() => Ok(()),
+            // The thread stopped: its error says why.
+            _ => Err(self.join().err().unwrap_or_else(|| std::io::Error::other("the spill writer stopped"))),
+        }
+    }
+
+    fn join(&mut self) -> std::io::Result<tempfile::NamedTempFile> {
+        self.tx = None;
+        match self.thread.take().map(std::thread::JoinHandle::join) {
+            Some(Ok(result)) => result,
+            Some(Err(_)) => Err(std::io::Error::other("the spill writer panicked")),
+            None => Err(std::io::Error::other("the spill writer stopped")),
+        }
+    }
+
+    /// Writes what is left and returns the file.
+    fn finish(mut self) -> std::io::Result<tempfile::NamedTempFile> {
+        let batch = std::mem::take(&mut self.batch);
+        self.send(batch)?;
+        self.join()
+    }
 }
 
 /// The builder.
@@ -228,13 +289,11 @@ impl Builder {
             Spill::Memory(v) => {
                 v.push(p.into());
                 if v.len() > self.params.chunk_points {
-                    let tmp = tempfile::NamedTempFile::new_in(&self.tmp_dir)?;
-                    let mut file = BufWriter::with_capacity(1 << 20, tmp);
-                    file.write_all(bytemuck::cast_slice(v))?;
-                    self.spill = Spill::Disk { file };
+                    let first = std::mem::take(v);
+                    self.spill = Spill::Disk(SpillWriter::start(&self.tmp_dir, first)?);
                 }
             }
-            Spill::Disk { file } => file.write_all(bytemuck::bytes_of(&RawRec::from(p)))?,
+            Spill::Disk(w) => w.push(p.into())?,
         }
         Ok(())
     }
@@ -265,9 +324,9 @@ impl Builder {
                 let root = ctx.region(&v, origin)?;
                 (root, 1)
             }
-            Spill::Disk { file } => {
+            Spill::Disk(w) => {
                 let mut clock = std::time::Instant::now();
-                let tmp = file.into_inner().map_err(|e| e.into_error())?;
+                let tmp = w.finish()?;
                 let top = TopTree::build(&self.reservoir, self.count, params.chunk_points / 2);
                 let chunks = top.leaves();
                 let files = distribute(tmp.path(), &top, self.count, &self.tmp_dir, ctx.progress)?;
@@ -380,22 +439,38 @@ fn distribute(
     for _ in 0..n {
         outs.push(BufWriter::with_capacity(1 << 18, tempfile::NamedTempFile::new_in(tmp_dir)?));
     }
-    let mut r = BufReader::with_capacity(1 << 20, File::open(spill)?);
-    let mut buf = vec![RawRec::zeroed(); 1 << 16];
+    // A reader thread reads the spill while this one sorts samples into the region files.
+    let mut spill = File::open(spill)?;
     let mut done = 0u64;
-    loop {
-        let bytes: &mut [u8] = bytemuck::cast_slice_mut(&mut buf);
-        let got = read_full(&mut r, bytes)?;
-        if got == 0 {
-            break;
+    std::thread::scope(|scope| -> Result<(), BuildError> {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<std::io::Result<Vec<RawRec>>>(2);
+        scope.spawn(move || {
+            loop {
+                let mut buf = vec![RawRec::zeroed(); SPILL_BATCH];
+                let got = match read_full(&mut spill, bytemuck::cast_slice_mut(&mut buf)) {
+                    Ok(0) => break,
+                    Ok(got) => got,
+                    Err(e) => {
+                        let _ = tx.send(Err(e));
+                        break;
+                    }
+                };
+                buf.truncate(got / std::mem::size_of::<RawRec>());
+                if tx.send(Ok(buf)).is_err() {
+                    break;
+                }
+            }
+        });
+        for recs in rx {
+            let recs = recs?;
+            for rec in &recs {
+                outs[top.locate(DVec3::from_array(rec.pos))].write_all(bytemuck::bytes_of(rec))?;
+            }
+            done += recs.len() as u64;
+            progress(Stage::Distribute(done, total));
         }
-        let recs = &buf[..got / std::mem::size_of::<RawRec>()];
-        for rec in recs {
-            outs[top.locate(DVec3::from_array(rec.pos))].write_all(bytemuck::bytes_of(rec))?;
-        }
-        done += recs.len() as u64;
-        progress(Stage::Distribute(done, total));
-    }
+        Ok(())
+    })?;
     outs.into_iter().map(|w| w.into_inner().map_err(|e| BuildError::Io(e.into_error()))).collect()
 }
 
@@ -828,6 +903,23 @@ fn merge(a: &Work, b: &Work) -> Work {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_spill_directory_that_cannot_be_written_is_an_error() {
+        let params = BuildParams { node_points: 16, chunk_points: 64, ..Default::default() };
+        let mut b = Builder::new(params, Path::new("/nonexistent/spill-dir")).expect("valid settings");
+        let err = (0..1000)
+            .map(|i| {
+                b.push(InputPoint {
+                    pos: DVec3::new(f64::from(i), 0.0, 0.0),
+                    normal: Vec3::ZERO,
+                    color: [0; 4],
+                    radius: 0.0,
+                })
+            })
+            .find_map(Result::err);
+        assert!(matches!(err, Some(BuildError::Io(_))), "{err:?}");
+    }
 
     #[test]
     fn ordered_bits_order_floats_as_total_cmp() {
