@@ -78,7 +78,7 @@ pub const MAX_K: usize = 32;
 /// distinct points.
 ///
 /// The search is exact and batched by leaf of the implicit hierarchy: the points of a leaf
-/// first scan the block around it (the subtree [`BLOCK_UP`] levels up, ~16·2^BLOCK_UP points),
+/// first scan the block around it (the subtree [`BLOCK_UP`] levels up, < 16·2^BLOCK_UP points),
 /// which bounds each one's k-th distance; one walk of the boxes then visits only the leaves
 /// outside the block that some of those balls reach.
 pub fn estimate(
