@@ -95,8 +95,7 @@ pub fn estimate(
     let search = LeafSearch { positions, boxes, k: k + 1 };
     let job = Job { search, centroid, need_normal };
     let mut out = vec![Estimate { normal: Vec3::ZERO, spacing: 0.0 }; positions.len()];
-    let root =
-        PathStep { index: 0, lo: 0, hi: positions.len(), depth_left: boxtree::depth_for(positions.len()) };
+    let root = PathStep::root(positions.len());
     job.descend(root, &mut Vec::with_capacity(64), &mut out);
     Some(out)
 }
@@ -122,11 +121,8 @@ impl Job<'_> {
                 *o = self.finish(idx, b);
             }
         } else {
-            let mid = step.lo + (step.hi - step.lo) / 2;
-            let d = step.depth_left - 1;
-            let l = PathStep { index: 2 * step.index + 1, lo: step.lo, hi: mid, depth_left: d };
-            let r = PathStep { index: 2 * step.index + 2, lo: mid, hi: step.hi, depth_left: d };
-            let (ol, or) = out.split_at_mut(mid - step.lo);
+            let [l, r] = step.children();
+            let (ol, or) = out.split_at_mut(l.hi - l.lo);
             if step.hi - step.lo >= PARALLEL_POINTS {
                 let mut other = path.clone();
                 rayon::join(|| self.descend(l, path, ol), || self.descend(r, &mut other, or));
@@ -214,15 +210,14 @@ impl LeafSearch<'_> {
     /// `best` (one empty set per point of the leaf).
     fn leaf(&self, path: &[PathStep], best: &mut [TopK]) {
         let leaf = path[path.len() - 1];
-        let block = path[path.len().saturating_sub(1 + BLOCK_UP)];
+        let block_at = path.len().saturating_sub(1 + BLOCK_UP);
+        let block = path[block_at];
         let qs = &self.positions[leaf.lo..leaf.hi];
         // Nearest ranges first (the leaf, then outwards through the block): the bound tightens
         // early and most later candidates are turned away by one comparison.
         let mut ranges = [(0usize, 0usize); BLOCK_UP + 1];
         ranges[0] = (leaf.lo, leaf.hi);
-        for (r, pair) in
-            ranges[1..].iter_mut().zip(path[path.len() - 1 - BLOCK_UP.min(path.len() - 1)..].windows(2).rev())
-        {
+        for (r, pair) in ranges[1..].iter_mut().zip(path[block_at..].windows(2).rev()) {
             let (parent, child) = (pair[0], pair[1]);
             *r = if child.lo == parent.lo { (child.hi, parent.hi) } else { (parent.lo, child.lo) };
         }
@@ -240,8 +235,8 @@ impl LeafSearch<'_> {
             let r = b.bound().sqrt();
             region = region.union(kiosk_core::Aabb { min: q - r, max: q + r });
         }
-        // The block itself first: a region strictly inside its box needs nothing more.
-        let block_at = path.len().saturating_sub(1 + BLOCK_UP);
+        // The block itself first: a region strictly inside its box needs nothing more. With no
+        // such ancestor the walk starts at the root (nothing to do when the root is the block).
         let start = path[..=block_at]
             .iter()
             .rev()
@@ -249,12 +244,10 @@ impl LeafSearch<'_> {
                 let b = &self.boxes[s.index];
                 region.min.is_finite() && region.min.cmpgt(b.min).all() && region.max.cmplt(b.max).all()
             })
-            .copied();
-        match start {
-            Some(s) if s.index == block.index => {}
-            Some(s) => self.walk(qs, best, &region, s, (block.lo, block.hi)),
-            None if block.index != 0 => self.walk(qs, best, &region, path[0], (block.lo, block.hi)),
-            None => {}
+            .copied()
+            .unwrap_or(path[0]);
+        if start.index != block.index {
+            self.walk(qs, best, &region, start, (block.lo, block.hi));
         }
     }
 
@@ -284,22 +277,9 @@ impl LeafSearch<'_> {
             }
             return;
         }
-        let mid = step.lo + (step.hi - step.lo) / 2;
-        let d = step.depth_left - 1;
-        self.walk(
-            qs,
-            best,
-            region,
-            PathStep { index: 2 * step.index + 1, lo: step.lo, hi: mid, depth_left: d },
-            skip,
-        );
-        self.walk(
-            qs,
-            best,
-            region,
-            PathStep { index: 2 * step.index + 2, lo: mid, hi: step.hi, depth_left: d },
-            skip,
-        );
+        for child in step.children() {
+            self.walk(qs, best, region, child, skip);
+        }
     }
 }
 

@@ -102,6 +102,23 @@ pub struct PathStep {
     pub depth_left: u32,
 }
 
+impl PathStep {
+    /// The root box of the implicit hierarchy over `n` points.
+    pub fn root(n: usize) -> Self {
+        Self { index: 0, lo: 0, hi: n, depth_left: depth_for(n) }
+    }
+
+    /// The two halves of an inner box (`depth_left > 0`), left first.
+    pub fn children(&self) -> [Self; 2] {
+        let mid = split(self.lo, self.hi);
+        let d = self.depth_left - 1;
+        [
+            Self { index: 2 * self.index + 1, lo: self.lo, hi: mid, depth_left: d },
+            Self { index: 2 * self.index + 2, lo: mid, hi: self.hi, depth_left: d },
+        ]
+    }
+}
+
 /// The path (root first) to every leaf of the implicit hierarchy over `n` points, in order.
 pub fn leaf_paths(n: usize) -> Vec<Vec<PathStep>> {
     fn rec(step: PathStep, path: &mut Vec<PathStep>, out: &mut Vec<Vec<PathStep>>) {
@@ -109,16 +126,15 @@ pub fn leaf_paths(n: usize) -> Vec<Vec<PathStep>> {
         if step.depth_left == 0 {
             out.push(path.clone());
         } else {
-            let mid = split(step.lo, step.hi);
-            let d = step.depth_left - 1;
-            rec(PathStep { index: 2 * step.index + 1, lo: step.lo, hi: mid, depth_left: d }, path, out);
-            rec(PathStep { index: 2 * step.index + 2, lo: mid, hi: step.hi, depth_left: d }, path, out);
+            for child in step.children() {
+                rec(child, path, out);
+            }
         }
         path.pop();
     }
     let mut out = Vec::new();
     if n > 0 {
-        rec(PathStep { index: 0, lo: 0, hi: n, depth_left: depth_for(n) }, &mut Vec::new(), &mut out);
+        rec(PathStep::root(n), &mut Vec::new(), &mut out);
     }
     out
 }
@@ -217,36 +233,7 @@ impl<'a, T: HasPosition> BoxTree<'a, T> {
             return;
         }
         let depth = depth_for(self.items.len());
-        self.knn_rec(q, 0, 0, self.items.len(), depth, max_depth, usize::MAX, best, tag);
-    }
-
-    /// Full-depth K-nearest search for a query that lies in a leaf, given the leaf's path from
-    /// [`leaf_paths`] (root first). The leaf is scanned first, which gives a tight bound; the
-    /// search then starts from the lowest ancestor whose box strictly contains the bounding
-    /// ball, since points of other subtrees lie beyond a split plane of the path. The fast path
-    /// for "neighbours of every point" (normal and spacing estimation).
-    pub fn knn_from_leaf<P: Copy>(
-        &self,
-        q: Vec3,
-        path: &[PathStep],
-        best: &mut KBest<P>,
-        tag: &impl Fn(u32) -> P,
-    ) {
-        let Some(leaf) = path.last() else { return };
-        for j in leaf.lo..leaf.hi {
-            best.offer((self.items[j].position() - q).length_squared(), tag(j as u32));
-        }
-        let r = best.bound().sqrt();
-        let start = path
-            .iter()
-            .rev()
-            .skip(1)
-            .find(|s| {
-                let b = &self.boxes[s.index];
-                r.is_finite() && (q - r).cmpgt(b.min).all() && (q + r).cmplt(b.max).all()
-            })
-            .unwrap_or(&path[0]);
-        self.knn_rec(q, start.index, start.lo, start.hi, start.depth_left, u32::MAX, leaf.lo, best, tag);
+        self.knn_rec(q, 0, 0, self.items.len(), depth, max_depth, best, tag);
     }
 
     #[expect(clippy::too_many_arguments, reason = "recursion state of a hot loop, kept flat")]
@@ -258,7 +245,6 @@ impl<'a, T: HasPosition> BoxTree<'a, T> {
         hi: usize,
         depth_left: u32,
         max_depth: u32,
-        skip_lo: usize,
         best: &mut KBest<P>,
         tag: &impl Fn(u32) -> P,
     ) {
@@ -266,9 +252,6 @@ impl<'a, T: HasPosition> BoxTree<'a, T> {
             return;
         }
         if depth_left == 0 {
-            if lo == skip_lo {
-                return;
-            }
             for (j, it) in self.items[lo..hi].iter().enumerate() {
                 best.offer((it.position() - q).length_squared(), tag((lo + j) as u32));
             }
@@ -283,11 +266,11 @@ impl<'a, T: HasPosition> BoxTree<'a, T> {
         let dl = self.boxes[l].distance_squared(q);
         let dr = self.boxes[r].distance_squared(q);
         if dl <= dr {
-            self.knn_rec(q, l, lo, mid, depth_left - 1, max_depth - 1, skip_lo, best, tag);
-            self.knn_rec(q, r, mid, hi, depth_left - 1, max_depth - 1, skip_lo, best, tag);
+            self.knn_rec(q, l, lo, mid, depth_left - 1, max_depth - 1, best, tag);
+            self.knn_rec(q, r, mid, hi, depth_left - 1, max_depth - 1, best, tag);
         } else {
-            self.knn_rec(q, r, mid, hi, depth_left - 1, max_depth - 1, skip_lo, best, tag);
-            self.knn_rec(q, l, lo, mid, depth_left - 1, max_depth - 1, skip_lo, best, tag);
+            self.knn_rec(q, r, mid, hi, depth_left - 1, max_depth - 1, best, tag);
+            self.knn_rec(q, l, lo, mid, depth_left - 1, max_depth - 1, best, tag);
         }
     }
 
@@ -455,27 +438,6 @@ mod tests {
             brute.sort_by(f32::total_cmp);
             let got: Vec<f32> = best.items().iter().map(|x| x.0).collect();
             assert_eq!(got, brute[..8].to_vec());
-        }
-    }
-
-    #[test]
-    fn knn_from_leaf_matches_plain_knn() {
-        let mut pts = cloud(3000, 7);
-        sort_spatially(&mut pts);
-        let boxes = build_boxes(&pts);
-        let tree = BoxTree::new(&pts, &boxes);
-        let paths = leaf_paths(pts.len());
-        assert_eq!(paths.len(), leaf_ranges(pts.len()).len());
-        for path in &paths {
-            let leaf = path[path.len() - 1];
-            for &q in &pts[leaf.lo..leaf.hi] {
-                let (mut a, mut b) = (KBest::new(13), KBest::new(13));
-                tree.knn(q, u32::MAX, &mut a, &|i| i);
-                tree.knn_from_leaf(q, path, &mut b, &|i| i);
-                let da: Vec<f32> = a.items().iter().map(|x| x.0).collect();
-                let db: Vec<f32> = b.items().iter().map(|x| x.0).collect();
-                assert_eq!(da, db);
-            }
         }
     }
 
