@@ -77,10 +77,10 @@ pub const MAX_K: usize = 32;
 /// `k` nearest neighbours (clamped to 2..=[`MAX_K`]). `None` when there are fewer than two
 /// distinct points.
 ///
-/// The search is exact and batched by leaf of the implicit hierarchy: the points of a leaf
-/// first scan the block around it (the subtree [`BLOCK_UP`] levels up, < 16·2^BLOCK_UP points),
-/// which bounds each one's k-th distance; one walk of the boxes then visits only the leaves
-/// outside the block that some of those balls reach.
+/// The search is exact and batched by leaf of the implicit hierarchy, in the order of the
+/// points: each point first tries a ball a little larger than the k-nearest balls of the leaf
+/// before (neighbouring leaves have similar spacing), and only grows it when it holds fewer
+/// than k samples (see [`LeafSearch::leaf`]).
 pub fn estimate(
     positions: &[Vec3],
     boxes: &[kiosk_core::Aabb],
@@ -92,11 +92,12 @@ pub fn estimate(
     }
     let k = k.clamp(2, (positions.len() - 1).min(MAX_K));
     let centroid = positions.iter().fold(Vec3::ZERO, |a, p| a + *p) / positions.len() as f32;
-    let search = LeafSearch { positions, boxes, k: k + 1 };
+    let soa = Soa::new(positions);
+    let search = LeafSearch { positions, soa: &soa, boxes, k: k + 1 };
     let job = Job { search, centroid, need_normal };
     let mut out = vec![Estimate { normal: Vec3::ZERO, spacing: 0.0 }; positions.len()];
     let root = PathStep::root(positions.len());
-    job.descend(root, &mut Vec::with_capacity(64), &mut out);
+    job.descend(root, &mut Vec::with_capacity(64), &mut Scratch::default(), &mut out);
     Some(out)
 }
 
@@ -111,12 +112,12 @@ struct Job<'a> {
 
 impl Job<'_> {
     /// Estimates the points of `step`'s range into `out` (that range), `path` leading to `step`.
-    fn descend(&self, step: PathStep, path: &mut Vec<PathStep>, out: &mut [Estimate]) {
+    fn descend(&self, step: PathStep, path: &mut Vec<PathStep>, scratch: &mut Scratch, out: &mut [Estimate]) {
         path.push(step);
         if step.depth_left == 0 {
             let mut best = [TopK::new(self.search.k); boxtree::LEAF_POINTS];
             let best = &mut best[..step.hi - step.lo];
-            self.search.leaf(path, best);
+            self.search.leaf(path, scratch, best);
             for ((o, idx), b) in out.iter_mut().zip(step.lo..step.hi).zip(best.iter()) {
                 *o = self.finish(idx, b);
             }
@@ -125,10 +126,13 @@ impl Job<'_> {
             let (ol, or) = out.split_at_mut(l.hi - l.lo);
             if step.hi - step.lo >= PARALLEL_POINTS {
                 let mut other = path.clone();
-                rayon::join(|| self.descend(l, path, ol), || self.descend(r, &mut other, or));
+                rayon::join(
+                    || self.descend(l, path, scratch, ol),
+                    || self.descend(r, &mut other, &mut Scratch::default(), or),
+                );
             } else {
-                self.descend(l, path, ol);
-                self.descend(r, path, or);
+                self.descend(l, path, scratch, ol);
+                self.descend(r, path, scratch, or);
             }
         }
         path.pop();
@@ -159,10 +163,7 @@ impl Job<'_> {
     }
 }
 
-/// Levels above a leaf of the block every point of the leaf scans first.
-pub const BLOCK_UP: usize = 2;
-
-/// The k nearest found so far (fixed capacity, sorted by squared distance).
+/// The k nearest of one point, by squared distance then index.
 #[derive(Clone, Copy)]
 struct TopK {
     n: usize,
@@ -176,31 +177,76 @@ impl TopK {
         Self { n: 0, k, d2: [f32::INFINITY; MAX_K + 1], idx: [0; MAX_K + 1] }
     }
 
-    #[inline]
-    fn bound(&self) -> f32 {
-        if self.n < self.k { f32::INFINITY } else { self.d2[self.k - 1] }
-    }
-
-    #[inline]
-    fn offer(&mut self, d2: f32, i: u32) {
-        if d2 >= self.bound() {
-            return;
+    /// Keeps the `k` smallest of `keys` ([`key`]s; reordered).
+    fn fill(&mut self, keys: &mut [u64]) {
+        let n = keys.len().min(self.k);
+        if keys.len() > n {
+            keys.select_nth_unstable(n - 1);
         }
-        // Insertion from the end; equal distances keep the earlier offer first.
-        let mut at = self.n.min(self.k - 1);
-        while at > 0 && self.d2[at - 1] > d2 {
-            self.d2[at] = self.d2[at - 1];
-            self.idx[at] = self.idx[at - 1];
-            at -= 1;
+        let kept = &mut keys[..n];
+        kept.sort_unstable();
+        for (i, &key) in kept.iter().enumerate() {
+            self.d2[i] = f32::from_bits((key >> 32) as u32);
+            self.idx[i] = key as u32;
         }
-        self.d2[at] = d2;
-        self.idx[at] = i;
-        self.n = (self.n + 1).min(self.k);
+        self.n = n;
     }
 }
 
+/// A candidate as one integer: squared distance (finite and non-negative, so its bits sort as the
+/// numbers do), then index.
+#[inline]
+fn key(d2: f32, idx: usize) -> u64 {
+    u64::from(d2.to_bits()) << 32 | idx as u64
+}
+
+/// Coordinates in separate arrays, so that distances to a run of points vectorise.
+struct Soa {
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
+}
+
+impl Soa {
+    fn new(p: &[Vec3]) -> Self {
+        Self {
+            x: p.iter().map(|v| v.x).collect(),
+            y: p.iter().map(|v| v.y).collect(),
+            z: p.iter().map(|v| v.z).collect(),
+        }
+    }
+
+    /// Squared distances from `q` to the points `lo..hi`, appended to `out`.
+    #[inline]
+    fn distances(&self, q: Vec3, lo: usize, hi: usize, out: &mut Vec<f32>) {
+        let (x, y, z) = (&self.x[lo..hi], &self.y[lo..hi], &self.z[lo..hi]);
+        out.extend(x.iter().zip(y).zip(z).map(|((&x, &y), &z)| {
+            let (dx, dy, dz) = (x - q.x, y - q.y, z - q.z);
+            dx * dx + dy * dy + dz * dz
+        }));
+    }
+}
+
+/// Buffers and state of one thread's leaf searches.
+#[derive(Default)]
+struct Scratch {
+    /// Leaves that some ball reaches: (box index, lo, hi).
+    leaves: Vec<(usize, usize, usize)>,
+    /// Distances to one leaf.
+    dist: Vec<f32>,
+    /// Candidates within a point's ball.
+    keys: Vec<u64>,
+    /// Squared radius to try first: [`GROWTH`] × the largest k-th distance² of the last leaf.
+    guess: f32,
+}
+
+/// The first ball tried holds this many times the area of the last leaf's largest k-nearest
+/// ball (its radius ~12 % larger): most points find their k nearest at once.
+const GROWTH: f32 = 1.25;
+
 struct LeafSearch<'a> {
     positions: &'a [Vec3],
+    soa: &'a Soa,
     boxes: &'a [kiosk_core::Aabb],
     k: usize,
 }
@@ -208,79 +254,110 @@ struct LeafSearch<'a> {
 impl LeafSearch<'_> {
     /// The k nearest (the point itself included) of every point of the leaf ending `path`, into
     /// `best` (one empty set per point of the leaf).
-    fn leaf(&self, path: &[PathStep], best: &mut [TopK]) {
+    ///
+    /// Each point tries a ball (squared radius `t`): the leaves that some ball reaches are
+    /// gathered by one walk of the boxes, and a point whose ball holds at least k samples keeps
+    /// the k nearest of them (no sample outside the ball can be nearer). The others try again
+    /// with a ball of twice the radius.
+    fn leaf(&self, path: &[PathStep], s: &mut Scratch, best: &mut [TopK]) {
         let leaf = path[path.len() - 1];
-        let block_at = path.len().saturating_sub(1 + BLOCK_UP);
-        let block = path[block_at];
         let qs = &self.positions[leaf.lo..leaf.hi];
-        // Nearest ranges first (the leaf, then outwards through the block): the bound tightens
-        // early and most later candidates are turned away by one comparison.
-        let mut ranges = [(0usize, 0usize); BLOCK_UP + 1];
-        ranges[0] = (leaf.lo, leaf.hi);
-        for (r, pair) in ranges[1..].iter_mut().zip(path[block_at..].windows(2).rev()) {
-            let (parent, child) = (pair[0], pair[1]);
-            *r = if child.lo == parent.lo { (child.hi, parent.hi) } else { (parent.lo, child.lo) };
-        }
-        for (b, &q) in best.iter_mut().zip(qs) {
-            for &(lo, hi) in &ranges {
-                for (j, p) in self.positions[lo..hi].iter().enumerate() {
-                    b.offer((*p - q).length_squared(), (lo + j) as u32);
+        let guess = if s.guess > 0.0 && s.guess.is_finite() {
+            s.guess
+        } else {
+            let b = &self.boxes[leaf.index];
+            b.extent().length_squared().max(f32::MIN_POSITIVE)
+        };
+        let mut t = [guess; boxtree::LEAF_POINTS];
+        let mut pending: u32 = (1 << qs.len()) - 1;
+        while pending != 0 {
+            // The region every pending ball lies in (widened by a rounding margin); the walk
+            // starts from the lowest box of the path that strictly contains it (samples of other
+            // subtrees lie beyond a split plane of the path), else from the root.
+            let mut region = kiosk_core::Aabb::EMPTY;
+            for (i, &q) in qs.iter().enumerate().filter(|(i, _)| pending >> i & 1 == 1) {
+                let r = t[i].sqrt() * (1.0 + 1e-5);
+                region = region.union(kiosk_core::Aabb { min: q - r, max: q + r });
+            }
+            let start = path
+                .iter()
+                .rev()
+                .find(|st| {
+                    let b = &self.boxes[st.index];
+                    region.min.is_finite() && region.min.cmpgt(b.min).all() && region.max.cmplt(b.max).all()
+                })
+                .copied()
+                .unwrap_or(path[0]);
+            s.leaves.clear();
+            self.walk(qs, &t, pending, &region, start, &mut s.leaves);
+            for (i, &q) in qs.iter().enumerate() {
+                if pending >> i & 1 == 0 {
+                    continue;
+                }
+                s.keys.clear();
+                for &(index, lo, hi) in &s.leaves {
+                    if self.boxes[index].distance_squared(q) <= t[i] {
+                        s.dist.clear();
+                        self.soa.distances(q, lo, hi, &mut s.dist);
+                        push_within(&mut s.keys, &s.dist, lo, t[i]);
+                    }
+                }
+                if s.keys.len() >= self.k {
+                    best[i].fill(&mut s.keys);
+                    pending &= !(1 << i);
+                } else {
+                    t[i] = (t[i] * 4.0).max(f32::MIN_POSITIVE);
                 }
             }
         }
-        // The region every ball lies in; start from the lowest ancestor of the block whose box
-        // strictly contains it (points of other subtrees lie beyond a split plane of the path).
-        let mut region = kiosk_core::Aabb::EMPTY;
-        for (b, &q) in best.iter().zip(qs) {
-            let r = b.bound().sqrt();
-            region = region.union(kiosk_core::Aabb { min: q - r, max: q + r });
-        }
-        // The block itself first: a region strictly inside its box needs nothing more. With no
-        // such ancestor the walk starts at the root (nothing to do when the root is the block).
-        let start = path[..=block_at]
-            .iter()
-            .rev()
-            .find(|s| {
-                let b = &self.boxes[s.index];
-                region.min.is_finite() && region.min.cmpgt(b.min).all() && region.max.cmplt(b.max).all()
-            })
-            .copied()
-            .unwrap_or(path[0]);
-        if start.index != block.index {
-            self.walk(qs, best, &region, start, (block.lo, block.hi));
-        }
+        let largest = best.iter().map(|b| b.d2[b.n - 1]).fold(0.0, f32::max);
+        s.guess = largest * GROWTH;
     }
 
-    /// Visits the leaves under `step` outside `skip` whose box is within some query's bound.
+    /// Gathers into `out` the leaves under `step` within some pending point's ball (squared
+    /// radii `t`).
     fn walk(
         &self,
         qs: &[Vec3],
-        best: &mut [TopK],
+        t: &[f32],
+        pending: u32,
         region: &kiosk_core::Aabb,
         step: PathStep,
-        skip: (usize, usize),
+        out: &mut Vec<(usize, usize, usize)>,
     ) {
         let b = &self.boxes[step.index];
         if b.max.cmplt(region.min).any() || b.min.cmpgt(region.max).any() {
             return;
         }
-        if step.lo >= skip.0 && step.hi <= skip.1 {
-            return;
-        }
         if step.depth_left == 0 {
-            for (t, &q) in best.iter_mut().zip(qs) {
-                if b.distance_squared(q) < t.bound() {
-                    for (j, p) in self.positions[step.lo..step.hi].iter().enumerate() {
-                        t.offer((*p - q).length_squared(), (step.lo + j) as u32);
-                    }
-                }
+            let reached = qs
+                .iter()
+                .zip(t)
+                .enumerate()
+                .any(|(i, (&q, &t))| pending >> i & 1 == 1 && b.distance_squared(q) <= t);
+            if reached {
+                out.push((step.index, step.lo, step.hi));
             }
             return;
         }
         for child in step.children() {
-            self.walk(qs, best, region, child, skip);
+            self.walk(qs, t, pending, region, child, out);
         }
     }
+}
+
+/// Appends the [`key`]s of the distances of `d2` (of points `first..`) that are within `bound`.
+#[inline]
+fn push_within(keys: &mut Vec<u64>, d2: &[f32], first: usize, bound: f32) {
+    // Branch-free: every key is written, only those within the bound advance the end.
+    let start = keys.len();
+    keys.resize(start + d2.len() + 1, 0);
+    let mut n = start;
+    for (j, &d) in d2.iter().enumerate() {
+        keys[n] = key(d, first + j);
+        n += usize::from(d <= bound);
+    }
+    keys.truncate(n);
 }
 
 /// Spatially sorts positions and builds their boxes (helper for [`estimate`]).
@@ -329,11 +406,13 @@ mod tests {
         let boxes = sorted_tree(&mut pts);
         let paths = boxtree::leaf_paths(pts.len());
         for k in [2usize, 12, MAX_K] {
-            let search = LeafSearch { positions: &pts, boxes: &boxes, k: k + 1 };
+            let soa = Soa::new(&pts);
+            let search = LeafSearch { positions: &pts, soa: &soa, boxes: &boxes, k: k + 1 };
+            let mut scratch = Scratch::default();
             for path in &paths {
                 let leaf = path[path.len() - 1];
                 let mut found = vec![TopK::new(k + 1); leaf.hi - leaf.lo];
-                search.leaf(path, &mut found);
+                search.leaf(path, &mut scratch, &mut found);
                 for (q, got) in (leaf.lo..leaf.hi).zip(found) {
                     let mut brute: Vec<f32> = pts.iter().map(|p| (*p - pts[q]).length_squared()).collect();
                     brute.sort_by(f32::total_cmp);
