@@ -605,21 +605,29 @@ impl Ctx<'_> {
             merged.par_iter().enumerate().map(|(i, p)| Keyed { pos: p.0, idx: i as u32 }).collect();
         hierarchy_sort(&mut keyed, self.params.node_points);
         let positions: Vec<Vec3> = keyed.iter().map(|k| k.pos).collect();
-        let order: Vec<u32> = keyed.iter().map(|k| k.idx).collect();
+        // The rest of each sample follows its position (one gather).
+        let sorted: Vec<(Vec3, [u8; 4], f32)> = keyed
+            .par_iter()
+            .map(|k| {
+                let (_, nrm, color, min_radius) = merged[k.idx as usize];
+                (nrm, color, min_radius)
+            })
+            .collect();
         drop(keyed);
+        drop(merged);
         self.timings.order += lap(&mut clock);
         let boxes = boxtree::build_boxes(&positions);
-        let need_normal = |k: usize| merged[order[k] as usize].1 == Vec3::ZERO;
+        let need_normal = |k: usize| sorted[k].0 == Vec3::ZERO;
         let est = estimate::estimate(&positions, &boxes, self.params.knn, &need_normal)
             .ok_or_else(|| BuildError::Degenerate("fewer than 2 distinct points".into()))?;
         drop(boxes);
         self.timings.estimate += lap(&mut clock);
         let radius_factor = self.params.radius_factor;
-        let (mut work, spacing2): (Vec<Work>, Vec<f32>) = order
+        let (mut work, spacing2): (Vec<Work>, Vec<f32>) = positions
             .par_iter()
+            .zip(&sorted)
             .zip(&est)
-            .map(|(&o, &Estimate { normal, spacing })| {
-                let (pos, nrm, color, min_radius) = merged[o as usize];
+            .map(|((&pos, &(nrm, color, min_radius)), &Estimate { normal, spacing })| {
                 let n = if nrm == Vec3::ZERO { normal } else { nrm };
                 // A lone point far from the rest still gets a finite, positive radius.
                 let h = if spacing > 0.0 && spacing.is_finite() { spacing } else { f32::MIN_POSITIVE };
@@ -627,7 +635,6 @@ impl Ctx<'_> {
                 (Work { pos, normal: n, radius, color }, h * h)
             })
             .unzip();
-        drop(merged);
         let mut h2 = spacing2;
         let r = self.split(&mut work, &mut h2);
         self.timings.nodes += lap(&mut clock);
@@ -815,22 +822,20 @@ fn choose_axis<T: boxtree::HasPosition>(work: &[T]) -> usize {
 /// Reduces `pts` to `target` samples by collapsing near pairs with compatible normals
 /// (bettio09 §3: shortest edges first; balsa12 §4: nearest neighbour with a compatible normal).
 /// Each pass takes the samples in spatial order; within each leaf of the implicit box hierarchy
-/// (fewer than 16 spatially close samples) it matches pairs greedily, shortest first; the
-/// candidate pairs of all leaves are then collapsed shortest first until `target` remain. A pass
-/// nearly halves the samples, so 2M → M takes one or two passes.
+/// (fewer than 16 spatially close samples) it matches pairs greedily, shortest first; of the
+/// candidate pairs of all leaves, the shortest are collapsed until `target` remain. A pass nearly
+/// halves the samples, so 2M → M takes one or two passes.
 /// Merged sample: midpoint; normal and colour weighted by splat area; radius covering both.
 ///
 /// The input is the concatenation of two nodes, each in the order of its implicit hierarchy (the
-/// two halves of a kd split): already a spatial order, so only later passes sort.
+/// two halves of a kd split): already a spatial order. A pass keeps it: a merged pair takes the
+/// place of its first sample, so later passes need no sort (the caller sorts the result for its
+/// box hierarchy).
 fn simplify(mut pts: Vec<Work>, target: usize, normal_cos: f32) -> Vec<Work> {
     let mut require_compatible = true;
-    let mut sorted = true;
     while pts.len() > target {
-        if !std::mem::replace(&mut sorted, false) {
-            boxtree::sort_spatially(&mut pts);
-        }
         let ranges = boxtree::leaf_ranges(pts.len());
-        // (squared length bits << 32 | i, j): sorting the key sorts by length, then i.
+        // (squared length bits << 32 | i, j), in the order of the leaves.
         let mut edges: Vec<(u64, u32)> = ranges
             .par_iter()
             .flat_map_iter(|&(lo, hi)| {
@@ -860,9 +865,6 @@ fn simplify(mut pts: Vec<Work>, target: usize, normal_cos: f32) -> Vec<Work> {
                 out
             })
             .collect();
-        edges.par_sort_unstable_by_key(|e| e.0);
-        let needed = pts.len() - target;
-        edges.truncate(needed);
         if edges.is_empty() {
             if !require_compatible {
                 // Only possible with a single sample per leaf; never loop forever.
@@ -871,16 +873,30 @@ fn simplify(mut pts: Vec<Work>, target: usize, normal_cos: f32) -> Vec<Work> {
             require_compatible = false;
             continue;
         }
-        let mut used = vec![false; pts.len()];
-        let mut out = Vec::with_capacity(pts.len() - edges.len());
+        let needed = pts.len() - target;
+        if edges.len() > needed {
+            // The `needed` shortest (keys are distinct: each sample is in one pair at most).
+            let mut keys: Vec<u64> = edges.iter().map(|e| e.0).collect();
+            let nth = *keys.select_nth_unstable(needed - 1).1;
+            edges.retain(|e| e.0 <= nth);
+        }
+        // partner[i] = j for the first sample of a pair, i for the second (it is dropped).
+        let mut partner = vec![u32::MAX; pts.len()];
         for &(key, j) in &edges {
             let i = key as u32;
-            used[i as usize] = true;
-            used[j as usize] = true;
-            out.push(merge(&pts[i as usize], &pts[j as usize]));
+            partner[i as usize] = j;
+            partner[j as usize] = i;
         }
-        out.extend(pts.iter().zip(&used).filter(|(_, u)| !**u).map(|(p, _)| *p));
-        pts = out;
+        pts = pts
+            .iter()
+            .zip(&partner)
+            .enumerate()
+            .filter_map(|(i, (p, &j))| match j {
+                u32::MAX => Some(*p),
+                j if j as usize > i => Some(merge(p, &pts[j as usize])),
+                _ => None,
+            })
+            .collect();
     }
     pts
 }
