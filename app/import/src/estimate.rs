@@ -60,6 +60,48 @@ pub fn symmetric_eigen(m: Mat3) -> [(f32, Vec3); 3] {
     out
 }
 
+/// Unit eigenvector of the smallest eigenvalue of a symmetric 3×3 matrix (the PCA normal), in
+/// closed form: eigenvalues by the trigonometric solution of the characteristic cubic, the
+/// eigenvector as the longest cross product of two rows of `m - λ I`. When the smallest
+/// eigenvalue is (nearly) double, that vector is ill-conditioned and [`symmetric_eigen`] decides.
+pub fn smallest_eigenvector(m: Mat3) -> Vec3 {
+    let c = |i: usize, j: usize| f64::from(m.col(j)[i]);
+    let scale =
+        (0..3).flat_map(|i| (0..3).map(move |j| (i, j))).map(|(i, j)| c(i, j).abs()).fold(0.0, f64::max);
+    if scale == 0.0 || !scale.is_finite() {
+        return symmetric_eigen(m)[0].1;
+    }
+    let a = [0, 1, 2].map(|i| [0, 1, 2].map(|j| c(i, j) / scale));
+    let q = (a[0][0] + a[1][1] + a[2][2]) / 3.0;
+    let p1 = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+    let p2 = (a[0][0] - q).powi(2) + (a[1][1] - q).powi(2) + (a[2][2] - q).powi(2) + 2.0 * p1;
+    let p = (p2 / 6.0).sqrt();
+    if p < 1e-12 {
+        return symmetric_eigen(m)[0].1;
+    }
+    let b = [0, 1, 2].map(|i| [0, 1, 2].map(|j| (a[i][j] - if i == j { q } else { 0.0 }) / p));
+    let det = b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[2][1])
+        - b[0][1] * (b[1][0] * b[2][2] - b[1][2] * b[2][0])
+        + b[0][2] * (b[1][0] * b[2][1] - b[1][1] * b[2][0]);
+    let phi = (det / 2.0).clamp(-1.0, 1.0).acos() / 3.0;
+    let largest = q + 2.0 * p * phi.cos();
+    let smallest = q + 2.0 * p * (phi + 2.0 * std::f64::consts::FRAC_PI_3).cos();
+    let middle = 3.0 * q - largest - smallest;
+    // A double smallest eigenvalue (a line-like neighbourhood): no preferred normal here.
+    if middle - smallest < 1e-6 * (largest - smallest).max(f64::MIN_POSITIVE) {
+        return symmetric_eigen(m)[0].1;
+    }
+    let r = [0, 1, 2].map(|i| glam::DVec3::new(a[i][0], a[i][1], a[i][2]) - glam::DVec3::AXES[i] * smallest);
+    let best = [r[0].cross(r[1]), r[0].cross(r[2]), r[1].cross(r[2])]
+        .into_iter()
+        .max_by(|x, y| x.length_squared().total_cmp(&y.length_squared()))
+        .unwrap_or(glam::DVec3::Z);
+    match best.try_normalize() {
+        Some(n) => n.as_vec3(),
+        None => symmetric_eigen(m)[0].1,
+    }
+}
+
 /// Per-sample results of [`estimate`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Estimate {
@@ -155,7 +197,7 @@ impl Job<'_> {
             let d = q - mean;
             cov += Mat3::from_cols(d * d.x, d * d.y, d * d.z);
         }
-        let mut n = symmetric_eigen(cov)[0].1;
+        let mut n = smallest_eigenvector(cov);
         if n.dot(p - self.centroid) < 0.0 {
             n = -n;
         }
@@ -390,6 +432,52 @@ mod tests {
         assert!(e[0].1.dot(expect).abs() > 0.9999, "{:?}", e);
         assert!(e[0].0.abs() < 1e-3 * e[2].0);
         assert!(e[0].0 <= e[1].0 && e[1].0 <= e[2].0);
+    }
+
+    #[test]
+    fn closed_form_normal_matches_jacobi() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
+        let mut checked = 0;
+        for case in 0..2000 {
+            // Neighbourhoods from flat to round, at scales from 1e-6 to 1e3, tilted at random.
+            let flat = [1e-4f32, 1e-2, 0.3, 1.0][case % 4];
+            let scale = 10f32.powi(rng.random_range(-6..=3));
+            let axis = Vec3::new(rng.random(), rng.random(), rng.random()) - 0.5;
+            let rot = glam::Quat::from_axis_angle(
+                axis.try_normalize().unwrap_or(Vec3::Z),
+                rng.random::<f32>() * 6.0,
+            );
+            let pts: Vec<Vec3> = (0..13)
+                .map(|_| {
+                    let local = Vec3::new(
+                        rng.random::<f32>() - 0.5,
+                        (rng.random::<f32>() - 0.5) * 0.7,
+                        (rng.random::<f32>() - 0.5) * flat,
+                    );
+                    rot * local * scale + Vec3::splat(100.0 * scale)
+                })
+                .collect();
+            let mean = pts.iter().fold(Vec3::ZERO, |a, p| a + *p) / pts.len() as f32;
+            let mut cov = Mat3::ZERO;
+            for p in &pts {
+                let d = *p - mean;
+                cov += Mat3::from_cols(d * d.x, d * d.y, d * d.z);
+            }
+            let e = symmetric_eigen(cov);
+            let n = smallest_eigenvector(cov);
+            assert!((n.length() - 1.0).abs() < 1e-5, "case {case}: not unit: {n}");
+            // Where the smallest eigenvalue is well separated, both give the same direction.
+            if e[1].0 - e[0].0 > 1e-3 * e[2].0 {
+                assert!(n.dot(e[0].1).abs() > 0.9999, "case {case}: {n} vs {:?}", e);
+                checked += 1;
+            }
+        }
+        assert!(checked > 1500, "only {checked} separated cases");
+        // Degenerate covariances still give a unit vector.
+        for m in [Mat3::ZERO, Mat3::IDENTITY, Mat3::from_diagonal(Vec3::new(1.0, 0.0, 0.0))] {
+            assert!((smallest_eigenvector(m).length() - 1.0).abs() < 1e-5);
+        }
     }
 
     #[test]
