@@ -1,19 +1,22 @@
 //! The out-of-core hierarchy builder (balsa12 §4).
 //!
 //! 1. [`Builder::push`] takes samples one by one: it keeps the bounding box, a seeded reservoir
-//!    sample of positions, and the samples themselves in memory up to `chunk_points`, spilling
-//!    everything to a temporary file beyond that.
-//! 2. [`Builder::finish`] chooses the model origin (the centre of the bounding box, in `f64`) and,
-//!    when the samples were spilled, splits space with a kd-tree built on the reservoir sample
-//!    until each region is expected to hold at most half a chunk; one sequential pass distributes
-//!    the samples to one temporary file per region.
+//!    sample of positions, and the samples themselves in memory up to `chunk_points`. When the
+//!    input outgrows that, a kd-tree chosen on the reservoir splits space into cells of about
+//!    1/32 of half a chunk (as the input seen so far is spread), and from then on every sample
+//!    goes straight to its cell's temporary file (written by a thread of its own).
+//! 2. [`Builder::finish`] chooses the model origin (the centre of the bounding box, in `f64`) and
+//!    makes a region of every maximal subtree of cells holding at most half a chunk in all. A
+//!    cell that alone holds more (the input seen first did not show where the rest would go: a
+//!    scan read in sweep order) is split again on a sample of its own and distributed to new cells.
 //! 3. Each region is processed in memory: duplicates are merged, normals and spacings estimated
 //!    (when missing), the kd-tree continues down to leaves of at most `node_points` samples with
 //!    split planes chosen for compactness among balanced (median) candidates, and inner nodes are
 //!    built bottom-up by simplifying the union of their two children down to `node_points`.
 //! 4. The region roots are joined by the same simplification up to the root.
 //!
-//! Memory is bounded by about `chunk_points` samples plus the reservoir, whatever the input size.
+//! Memory is bounded by about `chunk_points` samples plus the reservoir, whatever the input size
+//! and order (a region holds at most half a chunk, unless all its samples share one position).
 
 use crate::estimate::{self, Estimate};
 use crate::source::InputPoint;
@@ -92,6 +95,8 @@ pub struct BuildSummary {
     pub bytes: u64,
     /// Regions processed out of core (1: everything fitted in memory).
     pub chunks: usize,
+    /// Samples of the largest region processed in memory at once.
+    pub largest_region: u64,
     /// Where the time of [`Builder::finish`] went.
     pub timings: Timings,
 }
@@ -99,7 +104,7 @@ pub struct BuildSummary {
 /// Wall time of each stage of [`Builder::finish`], summed over regions.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Timings {
-    /// Writing the spill and distributing it to region files (out-of-core builds only).
+    /// Closing the cell files and splitting cells that outgrew a region (out-of-core builds only).
     pub distribute: std::time::Duration,
     /// Merging duplicates.
     pub merge: std::time::Duration,
@@ -169,30 +174,47 @@ impl boxtree::HasPosition for Work {
 
 enum Spill {
     Memory(Vec<RawRec>),
-    Disk(SpillWriter),
+    Cells(CellWriter),
 }
 
-/// Samples per batch handed to the spill writer.
+/// Samples per batch handed to the cell writer.
 const SPILL_BATCH: usize = 1 << 16;
 
-/// Writes the spill file on a thread of its own, so that reading the input and writing the spill
-/// overlap. Batches queue up to a few (memory stays bounded).
-struct SpillWriter {
+/// Cells per expected region when the input first outgrows memory: regions are later made of
+/// whole subtrees of cells, so a region can be as small as half a chunk's worth / this.
+const CELLS_PER_REGION: usize = 32;
+
+/// Sorts samples into the cell files of a kd-tree (chosen on the samples seen when memory ran
+/// out) on a thread of its own, so that reading the input and writing the cells overlap.
+/// Batches queue up to a few (memory stays bounded).
+struct CellWriter {
     batch: Vec<RawRec>,
     tx: Option<std::sync::mpsc::SyncSender<Vec<RawRec>>>,
-    thread: Option<std::thread::JoinHandle<std::io::Result<tempfile::NamedTempFile>>>,
+    thread: Option<std::thread::JoinHandle<std::io::Result<Cells>>>,
 }
 
-impl SpillWriter {
-    /// Starts the file with `first`.
-    fn start(tmp_dir: &Path, first: Vec<RawRec>) -> std::io::Result<Self> {
-        let mut file = tempfile::NamedTempFile::new_in(tmp_dir)?;
+/// A kd-tree and its cell files (one per leaf, in order).
+type Cells = (TopTree, Vec<tempfile::NamedTempFile>);
+
+impl CellWriter {
+    /// Starts the cells of `tree` with `first`.
+    fn start(tmp_dir: &Path, tree: TopTree, first: Vec<RawRec>) -> std::io::Result<Self> {
+        let mut cells = Vec::with_capacity(tree.leaves());
+        for _ in 0..tree.leaves() {
+            cells.push(BufWriter::with_capacity(1 << 16, tempfile::NamedTempFile::new_in(tmp_dir)?));
+        }
         let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<RawRec>>(4);
-        let thread = std::thread::Builder::new().name("spill".into()).spawn(move || {
+        let thread = std::thread::Builder::new().name("cells".into()).spawn(move || {
             for batch in rx {
-                file.write_all(bytemuck::cast_slice(&batch))?;
+                for rec in &batch {
+                    cells[tree.locate(DVec3::from_array(rec.pos))].write_all(bytemuck::bytes_of(rec))?;
+                }
             }
-            Ok(file)
+            let files = cells
+                .into_iter()
+                .map(|w| w.into_inner().map_err(std::io::IntoInnerError::into_error))
+                .collect::<std::io::Result<_>>()?;
+            Ok((tree, files))
         })?;
         let mut w = Self { batch: Vec::with_capacity(SPILL_BATCH), tx: Some(tx), thread: Some(thread) };
         w.send(first)?;
@@ -212,21 +234,21 @@ impl SpillWriter {
         match &self.tx {
             Some(tx) if tx.send(batch).is_ok() => Ok(()),
             // The thread stopped: its error says why.
-            _ => Err(self.join().err().unwrap_or_else(|| std::io::Error::other("the spill writer stopped"))),
+            _ => Err(self.join().err().unwrap_or_else(|| std::io::Error::other("the cell writer stopped"))),
         }
     }
 
-    fn join(&mut self) -> std::io::Result<tempfile::NamedTempFile> {
+    fn join(&mut self) -> std::io::Result<Cells> {
         self.tx = None;
         match self.thread.take().map(std::thread::JoinHandle::join) {
             Some(Ok(result)) => result,
-            Some(Err(_)) => Err(std::io::Error::other("the spill writer panicked")),
-            None => Err(std::io::Error::other("the spill writer stopped")),
+            Some(Err(_)) => Err(std::io::Error::other("the cell writer panicked")),
+            None => Err(std::io::Error::other("the cell writer stopped")),
         }
     }
 
-    /// Writes what is left and returns the file.
-    fn finish(mut self) -> std::io::Result<tempfile::NamedTempFile> {
+    /// Writes what is left and returns the tree and its cell files (one per leaf, in order).
+    fn finish(mut self) -> std::io::Result<Cells> {
         let batch = std::mem::take(&mut self.batch);
         self.send(batch)?;
         self.join()
@@ -277,23 +299,29 @@ impl Builder {
         self.count += 1;
         self.min = self.min.min(p.pos);
         self.max = self.max.max(p.pos);
-        if self.reservoir.len() < self.params.sample_size {
-            self.reservoir.push(p.pos);
-        } else {
-            let j = self.rng.random_range(0..self.count);
-            if (j as usize) < self.params.sample_size {
-                self.reservoir[j as usize] = p.pos;
-            }
-        }
         match &mut self.spill {
             Spill::Memory(v) => {
+                if self.reservoir.len() < self.params.sample_size {
+                    self.reservoir.push(p.pos);
+                } else {
+                    let j = self.rng.random_range(0..self.count);
+                    if (j as usize) < self.params.sample_size {
+                        self.reservoir[j as usize] = p.pos;
+                    }
+                }
                 v.push(p.into());
                 if v.len() > self.params.chunk_points {
+                    // Memory is full: from now on samples go to the cells of a kd-tree chosen on
+                    // those seen so far, fine enough that regions can be assembled from whole
+                    // subtrees of cells (cells that overflow are split again at the end).
                     let first = std::mem::take(v);
-                    self.spill = Spill::Disk(SpillWriter::start(&self.tmp_dir, first)?);
+                    let cell = (self.params.chunk_points / 2 / CELLS_PER_REGION).max(1);
+                    let tree = TopTree::build(&self.reservoir, self.count, cell);
+                    self.reservoir = Vec::new();
+                    self.spill = Spill::Cells(CellWriter::start(&self.tmp_dir, tree, first)?);
                 }
             }
-            Spill::Disk(w) => w.push(p.into())?,
+            Spill::Cells(w) => w.push(p.into())?,
         }
         Ok(())
     }
@@ -318,37 +346,43 @@ impl Builder {
             total: self.count,
             progress,
             timings: Timings::default(),
+            largest_region: 0,
         };
         let (root, chunks) = match self.spill {
             Spill::Memory(v) => {
                 let root = ctx.region(&v, origin)?;
                 (root, 1)
             }
-            Spill::Disk(w) => {
+            Spill::Cells(w) => {
                 let mut clock = std::time::Instant::now();
-                let tmp = w.finish()?;
-                let top = TopTree::build(&self.reservoir, self.count, params.chunk_points / 2);
-                let chunks = top.leaves();
-                let files = distribute(tmp.path(), &top, self.count, &self.tmp_dir, ctx.progress)?;
-                drop(tmp);
+                let (tree, cells) = w.finish()?;
+                let mut cells: Vec<Option<tempfile::NamedTempFile>> = cells.into_iter().map(Some).collect();
+                let mut regions = Vec::new();
+                let limit = (params.chunk_points / 2) as u64;
+                let plan =
+                    Plan::new(&tree, &mut cells, limit, &params, &self.tmp_dir, ctx.progress, &mut regions)?;
+                let chunks = regions.len();
                 ctx.timings.distribute += lap(&mut clock);
                 // A reader thread loads the next region while this one is processed (one region
-                // ahead: memory stays bounded); each region file is deleted once read.
+                // ahead: memory stays bounded); each cell file is deleted once read.
                 let root = std::thread::scope(|scope| {
                     let (tx, rx) = std::sync::mpsc::sync_channel(1);
                     scope.spawn(move || {
-                        for f in files {
-                            if tx.send(read_region(f.path())).is_err() {
+                        for files in regions {
+                            let recs = read_region(&files);
+                            drop(files);
+                            if tx.send(recs).is_err() {
                                 break;
                             }
                         }
                     });
-                    ctx.top(&top, &rx, origin)
+                    ctx.top(&plan, &rx, origin)
                 })?;
                 (root.ok_or_else(|| BuildError::Degenerate("no samples reached any region".into()))?, chunks)
             }
         };
         let timings = ctx.timings;
+        let largest_region = ctx.largest_region;
         let root = root.id;
         let levels = writer.node(root).height + 1;
         let nodes = u64::from(root) + 1;
@@ -362,6 +396,7 @@ impl Builder {
             levels,
             bytes,
             chunks,
+            largest_region,
             timings,
         })
     }
@@ -419,10 +454,106 @@ impl TopTree {
         }
     }
 
+    /// The leaves under this node: `first..end` (leaves are numbered left to right).
+    fn leaf_range(&self) -> (usize, usize) {
+        match self {
+            Self::Leaf(i) => (*i, i + 1),
+            Self::Split { children, .. } => (children[0].leaf_range().0, children[1].leaf_range().1),
+        }
+    }
+
     fn locate(&self, p: DVec3) -> usize {
         match self {
             Self::Leaf(i) => *i,
             Self::Split { axis, at, children } => children[usize::from(p[*axis] >= *at)].locate(p),
+        }
+    }
+}
+
+/// How the regions of an out-of-core build join: the kd-tree above them, its leaves the regions
+/// in the order [`Plan::new`] lists their files.
+enum Plan {
+    Region,
+    Split(Box<[Plan; 2]>),
+}
+
+impl Plan {
+    /// Makes a region of every maximal subtree of `t` whose cells hold at most `limit` samples
+    /// together, appending its cell files to `regions`; a single cell over the limit is split
+    /// again on a sample of its own and distributed to new cells.
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        t: &TopTree,
+        cells: &mut [Option<tempfile::NamedTempFile>],
+        limit: u64,
+        params: &BuildParams,
+        tmp_dir: &Path,
+        progress: &mut dyn FnMut(Stage),
+        regions: &mut Vec<Vec<tempfile::NamedTempFile>>,
+    ) -> Result<Self, BuildError> {
+        let (first, end) = t.leaf_range();
+        let n: u64 =
+            cells[first..end].iter().flatten().map(|f| records_in(f.path())).sum::<std::io::Result<u64>>()?;
+        if n <= limit {
+            regions.push(cells[first..end].iter_mut().filter_map(Option::take).collect());
+            return Ok(Self::Region);
+        }
+        match t {
+            TopTree::Split { children, .. } => {
+                let l = Self::new(&children[0], cells, limit, params, tmp_dir, progress, regions)?;
+                let r = Self::new(&children[1], cells, limit, params, tmp_dir, progress, regions)?;
+                Ok(Self::Split(Box::new([l, r])))
+            }
+            TopTree::Leaf(i) => {
+                // The samples seen first did not show where the rest would go (a scan read in
+                // sweep order): this cell outgrew a region and is split on a sample of its own.
+                let file = cells[*i].take().ok_or_else(|| std::io::Error::other("a cell was read twice"))?;
+                let sample = sample_file(file.path(), params.sample_size, params.seed)?;
+                let sub = TopTree::build(&sample, n, limit as usize);
+                let files = distribute(file.path(), &sub, n, tmp_dir, progress)?;
+                drop(file);
+                let largest =
+                    files.iter().map(|f| records_in(f.path())).try_fold(0, |m, c| c.map(|c| c.max(m)))?;
+                if largest == n {
+                    // Nothing separates these samples (all at one position): one region.
+                    regions.push(files);
+                    return Ok(Self::Region);
+                }
+                let mut sub_cells: Vec<_> = files.into_iter().map(Some).collect();
+                Self::new(&sub, &mut sub_cells, limit, params, tmp_dir, progress, regions)
+            }
+        }
+    }
+}
+
+/// Samples in a cell or spill file.
+fn records_in(path: &Path) -> std::io::Result<u64> {
+    Ok(std::fs::metadata(path)?.len() / std::mem::size_of::<RawRec>() as u64)
+}
+
+/// A seeded reservoir sample of at most `size` positions of a cell file.
+fn sample_file(path: &Path, size: usize, seed: u64) -> std::io::Result<Vec<DVec3>> {
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
+    let mut file = File::open(path)?;
+    let mut sample = Vec::new();
+    let mut seen = 0u64;
+    let mut buf = vec![RawRec::zeroed(); SPILL_BATCH];
+    loop {
+        let got = read_full(&mut file, bytemuck::cast_slice_mut(&mut buf))? / std::mem::size_of::<RawRec>();
+        if got == 0 {
+            return Ok(sample);
+        }
+        for rec in &buf[..got] {
+            seen += 1;
+            let p = DVec3::from_array(rec.pos);
+            if sample.len() < size {
+                sample.push(p);
+            } else {
+                let j = rng.random_range(0..seen) as usize;
+                if j < size {
+                    sample[j] = p;
+                }
+            }
         }
     }
 }
@@ -474,12 +605,18 @@ fn distribute(
     outs.into_iter().map(|w| w.into_inner().map_err(|e| BuildError::Io(e.into_error()))).collect()
 }
 
-/// The samples of one region file.
-fn read_region(path: &Path) -> std::io::Result<Vec<RawRec>> {
-    let mut file = File::open(path)?;
-    let len = file.metadata()?.len() as usize;
-    let mut recs = vec![RawRec::zeroed(); len / std::mem::size_of::<RawRec>()];
-    file.read_exact(bytemuck::cast_slice_mut(&mut recs))?;
+/// The samples of one region: its cell files, in order.
+fn read_region(files: &[tempfile::NamedTempFile]) -> std::io::Result<Vec<RawRec>> {
+    let mut lens = Vec::with_capacity(files.len());
+    for f in files {
+        lens.push(records_in(f.path())? as usize);
+    }
+    let mut recs = vec![RawRec::zeroed(); lens.iter().sum()];
+    let mut at = 0;
+    for (f, len) in files.iter().zip(lens) {
+        File::open(f.path())?.read_exact(bytemuck::cast_slice_mut(&mut recs[at..at + len]))?;
+        at += len;
+    }
     Ok(recs)
 }
 
@@ -508,19 +645,20 @@ struct Ctx<'a> {
     total: u64,
     progress: &'a mut dyn FnMut(Stage),
     timings: Timings,
+    largest_region: u64,
 }
 
 impl Ctx<'_> {
-    /// Builds the regions under `t`, in order, from the region files `regions` delivers in the
-    /// same order, and joins them.
+    /// Builds the regions under `plan`, in order, from the samples `regions` delivers in the same
+    /// order, and joins them.
     fn top(
         &mut self,
-        t: &TopTree,
+        plan: &Plan,
         regions: &std::sync::mpsc::Receiver<std::io::Result<Vec<RawRec>>>,
         origin: DVec3,
     ) -> Result<Option<Sub>, BuildError> {
-        match t {
-            TopTree::Leaf(_) => {
+        match plan {
+            Plan::Region => {
                 let recs =
                     regions.recv().map_err(|_| std::io::Error::other("the region reader stopped"))??;
                 if recs.is_empty() {
@@ -528,7 +666,7 @@ impl Ctx<'_> {
                 }
                 self.region(&recs, origin).map(Some)
             }
-            TopTree::Split { children, .. } => {
+            Plan::Split(children) => {
                 let l = self.top(&children[0], regions, origin)?;
                 let r = self.top(&children[1], regions, origin)?;
                 match (l, r) {
@@ -543,6 +681,7 @@ impl Ctx<'_> {
     fn region(&mut self, recs: &[RawRec], origin: DVec3) -> Result<Sub, BuildError> {
         let mut clock = std::time::Instant::now();
         let n_in = recs.len() as u64;
+        self.largest_region = self.largest_region.max(n_in);
         let mut pts: Vec<(Vec3, Vec3, [u8; 4], f32)> = recs
             .par_iter()
             .map(|r| {
@@ -935,6 +1074,46 @@ mod tests {
             })
             .find_map(Result::err);
         assert!(matches!(err, Some(BuildError::Io(_))), "{err:?}");
+    }
+
+    fn build_points(
+        points: impl Iterator<Item = DVec3>,
+        params: BuildParams,
+    ) -> Result<BuildSummary, BuildError> {
+        let dir = tempfile::tempdir()?;
+        let mut b = Builder::new(params, dir.path())?;
+        for pos in points {
+            b.push(InputPoint { pos, normal: Vec3::Z, color: [0; 4], radius: 0.0 })?;
+        }
+        b.finish(&dir.path().join("m.kstore"), &mut |_| {})
+    }
+
+    #[test]
+    fn input_in_sweep_order_still_makes_regions_of_at_most_half_a_chunk() {
+        // Sorted along x: when memory runs out, the samples seen span a tenth of the model, so
+        // nearly every later sample lands in the last cells, which must be split again.
+        let params = BuildParams { node_points: 64, chunk_points: 2000, ..Default::default() };
+        let grid = |i: u32| DVec3::new(f64::from(i / 100) * 0.01, f64::from(i % 100) * 0.01, 0.0);
+        let s = build_points((0..20_000).map(grid), params).expect("builds");
+        assert_eq!(s.leaf_points, 20_000);
+        assert!(s.largest_region <= 1000, "a region of {} samples", s.largest_region);
+        assert!(s.chunks >= 20, "{} regions", s.chunks);
+        // Random order: the first cells already fit.
+        let mut order: Vec<u32> = (0..20_000).collect();
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(1);
+        for i in (1..order.len()).rev() {
+            order.swap(i, rng.random_range(0..=i));
+        }
+        let r = build_points(order.into_iter().map(grid), params).expect("builds");
+        assert_eq!(r.leaf_points, 20_000);
+        assert!(r.largest_region <= 1000, "a region of {} samples", r.largest_region);
+    }
+
+    #[test]
+    fn out_of_core_input_at_one_position_is_an_error_not_a_loop() {
+        let params = BuildParams { node_points: 16, chunk_points: 64, ..Default::default() };
+        let err = build_points(std::iter::repeat_n(DVec3::new(1.0, 2.0, 3.0), 1000), params);
+        assert!(matches!(&err, Err(BuildError::Degenerate(m)) if m.contains("same position")), "{err:?}");
     }
 
     #[test]
