@@ -127,7 +127,7 @@ fn lap(clock: &mut std::time::Instant) -> std::time::Duration {
 /// Progress of a build, for a progress bar.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Stage {
-    /// Distributing spilled samples to regions: (done, total samples).
+    /// Splitting a cell that outgrew a region into new cells: (done, total samples of the cell).
     Distribute(u64, u64),
     /// Building nodes: (samples done, total samples).
     Build(u64, u64),
@@ -526,7 +526,7 @@ impl Plan {
     }
 }
 
-/// Samples in a cell or spill file.
+/// Samples in a cell file.
 fn records_in(path: &Path) -> std::io::Result<u64> {
     Ok(std::fs::metadata(path)?.len() / std::mem::size_of::<RawRec>() as u64)
 }
@@ -558,8 +558,9 @@ fn sample_file(path: &Path, size: usize, seed: u64) -> std::io::Result<Vec<DVec3
     }
 }
 
+/// Distributes the samples of the file `input` to one new cell file per leaf of `top`.
 fn distribute(
-    spill: &Path,
+    input: &Path,
     top: &TopTree,
     total: u64,
     tmp_dir: &Path,
@@ -570,15 +571,15 @@ fn distribute(
     for _ in 0..n {
         outs.push(BufWriter::with_capacity(1 << 18, tempfile::NamedTempFile::new_in(tmp_dir)?));
     }
-    // A reader thread reads the spill while this one sorts samples into the region files.
-    let mut spill = File::open(spill)?;
+    // A reader thread reads the input file while this one sorts samples into the new cells.
+    let mut input = File::open(input)?;
     let mut done = 0u64;
     std::thread::scope(|scope| -> Result<(), BuildError> {
         let (tx, rx) = std::sync::mpsc::sync_channel::<std::io::Result<Vec<RawRec>>>(2);
         scope.spawn(move || {
             loop {
                 let mut buf = vec![RawRec::zeroed(); SPILL_BATCH];
-                let got = match read_full(&mut spill, bytemuck::cast_slice_mut(&mut buf)) {
+                let got = match read_full(&mut input, bytemuck::cast_slice_mut(&mut buf)) {
                     Ok(0) => break,
                     Ok(got) => got,
                     Err(e) => {
