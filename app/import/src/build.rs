@@ -193,28 +193,38 @@ struct CellWriter {
     thread: Option<std::thread::JoinHandle<std::io::Result<Cells>>>,
 }
 
-/// A kd-tree and its cell files (one per leaf, in order).
-type Cells = (TopTree, Vec<tempfile::NamedTempFile>);
+/// A kd-tree and its cells (one per leaf, in order).
+type Cells = (TopTree, Vec<Cell>);
+
+/// The temporary file of one cell and the samples in it.
+struct Cell {
+    file: tempfile::NamedTempFile,
+    count: u64,
+}
 
 impl CellWriter {
     /// Starts the cells of `tree` with `first`.
     fn start(tmp_dir: &Path, tree: TopTree, first: Vec<RawRec>) -> std::io::Result<Self> {
         let mut cells = Vec::with_capacity(tree.leaves());
         for _ in 0..tree.leaves() {
-            cells.push(BufWriter::with_capacity(1 << 16, tempfile::NamedTempFile::new_in(tmp_dir)?));
+            cells.push((BufWriter::with_capacity(1 << 16, tempfile::NamedTempFile::new_in(tmp_dir)?), 0u64));
         }
         let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<RawRec>>(4);
         let thread = std::thread::Builder::new().name("cells".into()).spawn(move || {
             for batch in rx {
                 for rec in &batch {
-                    cells[tree.locate(DVec3::from_array(rec.pos))].write_all(bytemuck::bytes_of(rec))?;
+                    let (w, count) = &mut cells[tree.locate(DVec3::from_array(rec.pos))];
+                    w.write_all(bytemuck::bytes_of(rec))?;
+                    *count += 1;
                 }
             }
-            let files = cells
+            let cells = cells
                 .into_iter()
-                .map(|w| w.into_inner().map_err(std::io::IntoInnerError::into_error))
+                .map(|(w, count)| {
+                    Ok(Cell { file: w.into_inner().map_err(std::io::IntoInnerError::into_error)?, count })
+                })
                 .collect::<std::io::Result<_>>()?;
-            Ok((tree, files))
+            Ok((tree, cells))
         })?;
         let mut w = Self { batch: Vec::with_capacity(SPILL_BATCH), tx: Some(tx), thread: Some(thread) };
         w.send(first)?;
@@ -247,7 +257,7 @@ impl CellWriter {
         }
     }
 
-    /// Writes what is left and returns the tree and its cell files (one per leaf, in order).
+    /// Writes what is left and returns the tree and its cells.
     fn finish(mut self) -> std::io::Result<Cells> {
         let batch = std::mem::take(&mut self.batch);
         self.send(batch)?;
@@ -301,14 +311,13 @@ impl Builder {
         self.max = self.max.max(p.pos);
         match &mut self.spill {
             Spill::Memory(v) => {
-                if self.reservoir.len() < self.params.sample_size {
-                    self.reservoir.push(p.pos);
-                } else {
-                    let j = self.rng.random_range(0..self.count);
-                    if (j as usize) < self.params.sample_size {
-                        self.reservoir[j as usize] = p.pos;
-                    }
-                }
+                reservoir_offer(
+                    &mut self.reservoir,
+                    self.params.sample_size,
+                    self.count,
+                    p.pos,
+                    &mut self.rng,
+                );
                 v.push(p.into());
                 if v.len() > self.params.chunk_points {
                     // Memory is full: from now on samples go to the cells of a kd-tree chosen on
@@ -356,7 +365,7 @@ impl Builder {
             Spill::Cells(w) => {
                 let mut clock = std::time::Instant::now();
                 let (tree, cells) = w.finish()?;
-                let mut cells: Vec<Option<tempfile::NamedTempFile>> = cells.into_iter().map(Some).collect();
+                let mut cells: Vec<Option<Cell>> = cells.into_iter().map(Some).collect();
                 let mut regions = Vec::new();
                 let limit = (params.chunk_points / 2) as u64;
                 let plan =
@@ -479,21 +488,20 @@ enum Plan {
 
 impl Plan {
     /// Makes a region of every maximal subtree of `t` whose cells hold at most `limit` samples
-    /// together, appending its cell files to `regions`; a single cell over the limit is split
-    /// again on a sample of its own and distributed to new cells.
+    /// together, appending its cells to `regions`; a single cell over the limit is split again
+    /// on a sample of its own and distributed to new cells.
     #[allow(clippy::too_many_arguments)]
     fn new(
         t: &TopTree,
-        cells: &mut [Option<tempfile::NamedTempFile>],
+        cells: &mut [Option<Cell>],
         limit: u64,
         params: &BuildParams,
         tmp_dir: &Path,
         progress: &mut dyn FnMut(Stage),
-        regions: &mut Vec<Vec<tempfile::NamedTempFile>>,
+        regions: &mut Vec<Vec<Cell>>,
     ) -> Result<Self, BuildError> {
         let (first, end) = t.leaf_range();
-        let n: u64 =
-            cells[first..end].iter().flatten().map(|f| records_in(f.path())).sum::<std::io::Result<u64>>()?;
+        let n: u64 = cells[first..end].iter().flatten().map(|c| c.count).sum();
         if n <= limit {
             regions.push(cells[first..end].iter_mut().filter_map(Option::take).collect());
             return Ok(Self::Region);
@@ -507,115 +515,92 @@ impl Plan {
             TopTree::Leaf(i) => {
                 // The samples seen first did not show where the rest would go (a scan read in
                 // sweep order): this cell outgrew a region and is split on a sample of its own.
-                let file = cells[*i].take().ok_or_else(|| std::io::Error::other("a cell was read twice"))?;
-                let sample = sample_file(file.path(), params.sample_size, params.seed)?;
+                let cell = cells[*i].take().ok_or_else(|| std::io::Error::other("a cell was read twice"))?;
+                let sample = sample_file(cell.file.path(), params.sample_size, params.seed)?;
                 let sub = TopTree::build(&sample, n, limit as usize);
-                let files = distribute(file.path(), &sub, n, tmp_dir, progress)?;
-                drop(file);
-                let largest =
-                    files.iter().map(|f| records_in(f.path())).try_fold(0, |m, c| c.map(|c| c.max(m)))?;
-                if largest == n {
+                let sub_cells = distribute(cell.file.path(), sub, n, tmp_dir, progress)?;
+                drop(cell);
+                let (sub, sub_cells) = sub_cells;
+                if sub_cells.iter().any(|c| c.count == n) {
                     // Nothing separates these samples (all at one position): one region.
-                    regions.push(files);
+                    regions.push(sub_cells);
                     return Ok(Self::Region);
                 }
-                let mut sub_cells: Vec<_> = files.into_iter().map(Some).collect();
+                let mut sub_cells: Vec<_> = sub_cells.into_iter().map(Some).collect();
                 Self::new(&sub, &mut sub_cells, limit, params, tmp_dir, progress, regions)
             }
         }
     }
 }
 
-/// Samples in a cell file.
-fn records_in(path: &Path) -> std::io::Result<u64> {
-    Ok(std::fs::metadata(path)?.len() / std::mem::size_of::<RawRec>() as u64)
+/// Offers the `seen`-th position `p` to a reservoir sample of at most `size` positions.
+fn reservoir_offer(sample: &mut Vec<DVec3>, size: usize, seen: u64, p: DVec3, rng: &mut rand_pcg::Pcg64) {
+    if sample.len() < size {
+        sample.push(p);
+    } else {
+        let j = rng.random_range(0..seen);
+        if (j as usize) < size {
+            sample[j as usize] = p;
+        }
+    }
+}
+
+/// Calls `f` with the samples of the file `path`, a batch at a time.
+fn for_each_batch(path: &Path, mut f: impl FnMut(Vec<RawRec>) -> std::io::Result<()>) -> std::io::Result<()> {
+    let mut file = File::open(path)?;
+    loop {
+        let mut buf = vec![RawRec::zeroed(); SPILL_BATCH];
+        let got = read_full(&mut file, bytemuck::cast_slice_mut(&mut buf))? / std::mem::size_of::<RawRec>();
+        if got == 0 {
+            return Ok(());
+        }
+        buf.truncate(got);
+        f(buf)?;
+    }
 }
 
 /// A seeded reservoir sample of at most `size` positions of a cell file.
 fn sample_file(path: &Path, size: usize, seed: u64) -> std::io::Result<Vec<DVec3>> {
     let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
-    let mut file = File::open(path)?;
     let mut sample = Vec::new();
     let mut seen = 0u64;
-    let mut buf = vec![RawRec::zeroed(); SPILL_BATCH];
-    loop {
-        let got = read_full(&mut file, bytemuck::cast_slice_mut(&mut buf))? / std::mem::size_of::<RawRec>();
-        if got == 0 {
-            return Ok(sample);
-        }
-        for rec in &buf[..got] {
+    for_each_batch(path, |batch| {
+        for rec in &batch {
             seen += 1;
-            let p = DVec3::from_array(rec.pos);
-            if sample.len() < size {
-                sample.push(p);
-            } else {
-                let j = rng.random_range(0..seen) as usize;
-                if j < size {
-                    sample[j] = p;
-                }
-            }
-        }
-    }
-}
-
-/// Distributes the samples of the file `input` to one new cell file per leaf of `top`.
-fn distribute(
-    input: &Path,
-    top: &TopTree,
-    total: u64,
-    tmp_dir: &Path,
-    progress: &mut dyn FnMut(Stage),
-) -> Result<Vec<tempfile::NamedTempFile>, BuildError> {
-    let n = top.leaves();
-    let mut outs = Vec::with_capacity(n);
-    for _ in 0..n {
-        outs.push(BufWriter::with_capacity(1 << 18, tempfile::NamedTempFile::new_in(tmp_dir)?));
-    }
-    // A reader thread reads the input file while this one sorts samples into the new cells.
-    let mut input = File::open(input)?;
-    let mut done = 0u64;
-    std::thread::scope(|scope| -> Result<(), BuildError> {
-        let (tx, rx) = std::sync::mpsc::sync_channel::<std::io::Result<Vec<RawRec>>>(2);
-        scope.spawn(move || {
-            loop {
-                let mut buf = vec![RawRec::zeroed(); SPILL_BATCH];
-                let got = match read_full(&mut input, bytemuck::cast_slice_mut(&mut buf)) {
-                    Ok(0) => break,
-                    Ok(got) => got,
-                    Err(e) => {
-                        let _ = tx.send(Err(e));
-                        break;
-                    }
-                };
-                buf.truncate(got / std::mem::size_of::<RawRec>());
-                if tx.send(Ok(buf)).is_err() {
-                    break;
-                }
-            }
-        });
-        for recs in rx {
-            let recs = recs?;
-            for rec in &recs {
-                outs[top.locate(DVec3::from_array(rec.pos))].write_all(bytemuck::bytes_of(rec))?;
-            }
-            done += recs.len() as u64;
-            progress(Stage::Distribute(done, total));
+            reservoir_offer(&mut sample, size, seen, DVec3::from_array(rec.pos), &mut rng);
         }
         Ok(())
     })?;
-    outs.into_iter().map(|w| w.into_inner().map_err(|e| BuildError::Io(e.into_error()))).collect()
+    Ok(sample)
 }
 
-/// The samples of one region: its cell files, in order.
-fn read_region(files: &[tempfile::NamedTempFile]) -> std::io::Result<Vec<RawRec>> {
-    let mut lens = Vec::with_capacity(files.len());
-    for f in files {
-        lens.push(records_in(f.path())? as usize);
-    }
-    let mut recs = vec![RawRec::zeroed(); lens.iter().sum()];
+/// Distributes the samples of the file `input` (`total` of them) to new cells, one per leaf of
+/// `top`: this thread reads while the cell writer's thread sorts.
+fn distribute(
+    input: &Path,
+    top: TopTree,
+    total: u64,
+    tmp_dir: &Path,
+    progress: &mut dyn FnMut(Stage),
+) -> Result<Cells, BuildError> {
+    let mut writer = CellWriter::start(tmp_dir, top, Vec::new())?;
+    let mut done = 0u64;
+    for_each_batch(input, |batch| {
+        done += batch.len() as u64;
+        writer.send(batch)?;
+        progress(Stage::Distribute(done, total));
+        Ok(())
+    })?;
+    Ok(writer.finish()?)
+}
+
+/// The samples of one region: its cells, in order.
+fn read_region(cells: &[Cell]) -> std::io::Result<Vec<RawRec>> {
+    let mut recs = vec![RawRec::zeroed(); cells.iter().map(|c| c.count as usize).sum()];
     let mut at = 0;
-    for (f, len) in files.iter().zip(lens) {
-        File::open(f.path())?.read_exact(bytemuck::cast_slice_mut(&mut recs[at..at + len]))?;
+    for c in cells {
+        let len = c.count as usize;
+        File::open(c.file.path())?.read_exact(bytemuck::cast_slice_mut(&mut recs[at..at + len]))?;
         at += len;
     }
     Ok(recs)
