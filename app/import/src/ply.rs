@@ -134,6 +134,17 @@ pub struct Element {
 }
 
 impl Element {
+    /// Bytes per row in a binary file when every property is a scalar (lists vary).
+    pub fn row_size(&self) -> Option<usize> {
+        self.props
+            .iter()
+            .map(|p| match p.kind {
+                PropKind::Scalar(t) => Some(t.size()),
+                PropKind::List { .. } => None,
+            })
+            .sum()
+    }
+
     /// Index of a property by name.
     pub fn prop(&self, name: &str) -> Option<usize> {
         self.props.iter().position(|p| p.name == name)
@@ -314,6 +325,10 @@ pub fn read_body(
         row.values.clear();
         row.values.resize(el.props.len(), f64::NAN);
         row.lists.resize_with(el.props.len(), Vec::new);
+        if let (Format::BinaryLe | Format::BinaryBe, Some(size)) = (header.format, el.row_size()) {
+            read_fixed_rows(r, el, ei, size, header.format == Format::BinaryBe, &mut row, &mut visit)?;
+            continue;
+        }
         for ri in 0..el.count {
             let rerr = |line: Option<usize>, msg: String| PlyError::Row {
                 element: el.name.clone(),
@@ -441,6 +456,59 @@ fn read_exact(r: &mut (impl BufRead + ?Sized), n: usize, buf: &mut Vec<u8>) -> R
     buf.resize(n, 0);
     r.read_exact(buf)
         .map_err(|e| if e.kind() == std::io::ErrorKind::UnexpectedEof { BinErr::Eof } else { BinErr::Io(e) })
+}
+
+/// Reads the rows of a binary element whose rows all have `size` bytes (scalars only), many rows
+/// per read.
+fn read_fixed_rows(
+    r: &mut (impl BufRead + ?Sized),
+    el: &Element,
+    ei: usize,
+    size: usize,
+    big: bool,
+    row: &mut Row,
+    visit: &mut impl FnMut(usize, u64, &Row) -> Result<(), PlyError>,
+) -> Result<(), PlyError> {
+    let batch = ((1 << 16) / size.max(1)).max(1) as u64;
+    let mut buf = vec![0u8; batch as usize * size];
+    let mut done = 0u64;
+    while done < el.count {
+        let rows = batch.min(el.count - done) as usize;
+        let want = &mut buf[..rows * size];
+        let mut got = 0;
+        while got < want.len() {
+            match r.read(&mut want[got..]) {
+                Ok(0) => break,
+                Ok(n) => got += n,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(PlyError::Io(e)),
+            }
+        }
+        for (i, bytes) in want[..got].chunks_exact(size).enumerate() {
+            let mut at = 0;
+            for (v, p) in row.values.iter_mut().zip(&el.props) {
+                if let PropKind::Scalar(t) = p.kind {
+                    *v = t.decode(&bytes[at..], big);
+                    at += t.size();
+                }
+            }
+            visit(ei, done + i as u64, row)?;
+        }
+        if got < want.len() {
+            return Err(PlyError::Row {
+                element: el.name.clone(),
+                row: done + (got / size) as u64 + 1,
+                line: None,
+                msg: format!(
+                    "unexpected end of file: {} of {} rows present",
+                    done + (got / size) as u64,
+                    el.count
+                ),
+            });
+        }
+        done += rows as u64;
+    }
+    Ok(())
 }
 
 fn read_binary_row(
