@@ -141,31 +141,62 @@ pub fn synthetic_point(rng: &mut Rng64) -> InputPoint {
     InputPoint { pos, normal, color: [0; 4], radius: 0.0 }
 }
 
+/// Writes `n` samples of [`synthetic_point`] to a binary little-endian PLY of float positions and
+/// normals (how scanners deliver big clouds), so that the timed build reads a file as
+/// `kiosk import` does instead of timing the generator.
+fn write_synthetic_ply(n: u64, path: &Path) -> anyhow::Result<()> {
+    use std::io::Write;
+    let mut w = std::io::BufWriter::with_capacity(1 << 20, std::fs::File::create(path)?);
+    write!(
+        w,
+        "ply\nformat binary_little_endian 1.0\ncomment IsoKiosk benchmark: synthetic statue\n\
+         element vertex {n}\nproperty float x\nproperty float y\nproperty float z\n\
+         property float nx\nproperty float ny\nproperty float nz\nend_header\n"
+    )?;
+    let mut rng = Rng64::seed_from_u64(42);
+    for _ in 0..n {
+        let p = synthetic_point(&mut rng);
+        for v in p.pos.as_vec3().to_array().into_iter().chain(p.normal.to_array()) {
+            w.write_all(&v.to_le_bytes())?;
+        }
+    }
+    w.flush()?;
+    Ok(())
+}
+
 fn child_build(input: &str, m: usize, out: &str) -> anyhow::Result<()> {
     let out = Path::new(out);
     let params = BuildParams { node_points: m, ..BuildParams::default() };
     let tmp = out.parent().unwrap_or(Path::new("."));
+    let (path, label, generated) = match input.strip_prefix("synthetic:") {
+        Some(n) => {
+            let n: u64 = n.parse()?;
+            let path = tmp.join(format!("synthetic-{n}.ply"));
+            write_synthetic_ply(n, &path)?;
+            (path, format!("synthetic statue {} M", n / 1_000_000), true)
+        }
+        None => {
+            let path = PathBuf::from(input.trim_start_matches("scan:"));
+            let label = path.file_name().map_or("scan".into(), |n| n.to_string_lossy().into_owned());
+            (path, label, false)
+        }
+    };
     let start = Instant::now();
     let mut b = Builder::new(params, tmp)?;
-    let label;
-    if let Some(n) = input.strip_prefix("synthetic:") {
-        let n: u64 = n.parse()?;
-        let mut rng = Rng64::seed_from_u64(42);
-        for _ in 0..n {
-            b.push(synthetic_point(&mut rng))?;
-        }
-        label = format!("synthetic statue {} M", n / 1_000_000);
-    } else {
-        let path = PathBuf::from(input.trim_start_matches("scan:"));
-        let mut err = None;
-        source::read_file(&path, &ReadOptions::default(), &mut |p| {
-            b.push(p).map_err(|e| {
-                err = Some(e.to_string());
-                "push".to_string()
-            })
-        })?;
-        label = path.file_name().map_or("scan".into(), |n| n.to_string_lossy().into_owned());
+    let mut err = None;
+    let read = source::read_file(&path, &ReadOptions::default(), &mut |p| {
+        b.push(p).map_err(|e| {
+            err = Some(e.to_string());
+            "push".to_string()
+        })
+    });
+    if generated {
+        std::fs::remove_file(&path)?;
     }
+    if let Some(e) = err {
+        anyhow::bail!("build of {label}: {e}");
+    }
+    read?;
     let read = start.elapsed().as_secs_f64();
     let s = b.finish(out, &mut |_| {})?;
     let secs = start.elapsed().as_secs_f64();

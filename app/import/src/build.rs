@@ -674,48 +674,29 @@ impl Ctx<'_> {
                 ((DVec3::from_array(r.pos) - origin).as_vec3(), Vec3::from_array(r.normal), r.color, r.radius)
             })
             .collect();
-        // Merge duplicates (identical stored positions): average their normals and colours. One
-        // integer per sample sorts them: the three coordinates (bits in the order of `total_cmp`)
-        // then the sample's index, so a run of equal positions is contiguous and in input order.
-        let mut keys: Vec<u128> = pts
-            .par_iter()
-            .enumerate()
-            .map(|(i, p)| {
-                let [x, y, z] = p.0.to_array().map(|c| u128::from(ordered_bits(c)));
-                x << 96 | y << 64 | z << 32 | i as u128
-            })
-            .collect();
-        keys.par_sort_unstable();
-        // A run of duplicates becomes its first sample; the others are dropped. Samples keep
-        // their input order (only duplicates are looked up out of order).
+        // Merge duplicates (identical stored positions): average their normals and colours. A
+        // group of duplicates becomes its first sample; the others are dropped. Samples keep
+        // their input order.
         let mut dropped = vec![false; pts.len()];
-        let mut i = 0;
-        while i < keys.len() {
-            let mut j = i + 1;
-            while j < keys.len() && keys[j] >> 32 == keys[i] >> 32 {
-                j += 1;
-            }
-            if j - i > 1 {
-                let run: Vec<usize> = keys[i..j].iter().map(|&k| k as u32 as usize).collect();
-                let nrm = run.iter().fold(Vec3::ZERO, |a, &k| a + pts[k].1).normalize_or_zero();
-                let mut c = [0u32; 4];
-                for &k in &run {
-                    for (acc, v) in c.iter_mut().zip(pts[k].2) {
-                        *acc += u32::from(v);
-                    }
-                }
-                let n = run.len() as u32;
-                let r = run.iter().fold(0.0f32, |a, &k| a.max(pts[k].3));
-                pts[run[0]] = (pts[run[0]].0, nrm, c.map(|x| (x / n) as u8), r);
-                for &k in &run[1..] {
-                    dropped[k] = true;
+        let positions: Vec<Vec3> = pts.iter().map(|p| p.0).collect();
+        duplicate_groups(&positions, position_hash, |run| {
+            let nrm = run.iter().fold(Vec3::ZERO, |a, &k| a + pts[k].1).normalize_or_zero();
+            let mut c = [0u32; 4];
+            for &k in run {
+                for (acc, v) in c.iter_mut().zip(pts[k].2) {
+                    *acc += u32::from(v);
                 }
             }
-            i = j;
-        }
+            let n = run.len() as u32;
+            let r = run.iter().fold(0.0f32, |a, &k| a.max(pts[k].3));
+            pts[run[0]] = (pts[run[0]].0, nrm, c.map(|x| (x / n) as u8), r);
+            for &k in &run[1..] {
+                dropped[k] = true;
+            }
+        });
+        drop(positions);
         let merged: Vec<(Vec3, Vec3, [u8; 4], f32)> =
             pts.iter().zip(&dropped).filter(|(_, d)| !**d).map(|(p, _)| *p).collect();
-        drop(keys);
         drop(pts);
         self.timings.merge += lap(&mut clock);
         if merged.len() < 2 {
@@ -872,11 +853,48 @@ fn build_subtree(work: &mut [Work], h2: &mut [f32], params: &BuildParams) -> Sub
     SubtreeOut { nodes, samples, spacing }
 }
 
-/// The bits of `x` as an unsigned integer ordered as [`f32::total_cmp`] orders floats.
+/// Calls `group` with the indices (ascending) of every set of at least two samples at bit-identical
+/// positions. One integer per sample finds them: `hash` of the position above the sample's index,
+/// sorted, so that equal positions are contiguous and in input order; a run of equal hashes
+/// is then split by position (distinct positions may share a hash).
+fn duplicate_groups(positions: &[Vec3], hash: impl Fn(Vec3) -> u64 + Sync, mut group: impl FnMut(&[usize])) {
+    let idx_bits = usize::BITS - (positions.len().max(2) - 1).leading_zeros();
+    let mut keys: Vec<u64> =
+        positions.par_iter().enumerate().map(|(i, &p)| hash(p) << idx_bits | i as u64).collect();
+    keys.par_sort_unstable();
+    let index = |k: u64| (k & ((1 << idx_bits) - 1)) as usize;
+    let bits = |k: usize| positions[k].to_array().map(f32::to_bits);
+    let mut i = 0;
+    while i < keys.len() {
+        let mut j = i + 1;
+        while j < keys.len() && keys[j] >> idx_bits == keys[i] >> idx_bits {
+            j += 1;
+        }
+        if j - i > 1 {
+            let mut rest: Vec<usize> = keys[i..j].iter().map(|&k| index(k)).collect();
+            while let Some(&first) = rest.first() {
+                let run: Vec<usize>;
+                (run, rest) = rest.iter().partition(|&&k| bits(k) == bits(first));
+                if run.len() > 1 {
+                    group(&run);
+                }
+            }
+        }
+        i = j;
+    }
+}
+
+/// A hash of a position's bits (equal positions, equal hashes), well mixed in every bit.
 #[inline]
-fn ordered_bits(x: f32) -> u32 {
-    let b = x.to_bits();
-    if b >> 31 == 1 { !b } else { b | 1 << 31 }
+fn position_hash(p: Vec3) -> u64 {
+    let [x, y, z] = p.to_array().map(|c| u64::from(c.to_bits()));
+    // MurmurHash3's 64-bit finaliser over the three coordinates.
+    let mut h = (x << 32 | y) ^ z.wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    h ^= h >> 33;
+    h = h.wrapping_mul(0xff51_afd7_ed55_8ccd);
+    h ^= h >> 33;
+    h = h.wrapping_mul(0xc4ce_b9fe_1a85_ec53);
+    h ^ h >> 33
 }
 
 /// A position and where it came from, for sorting a region once.
@@ -965,29 +983,10 @@ fn simplify(mut pts: Vec<Work>, target: usize, normal_cos: f32) -> Vec<Work> {
             .par_iter()
             .flat_map_iter(|&(lo, hi)| {
                 let leaf = &pts[lo..hi];
-                // (squared length, i, j) packed in one integer: squared lengths are finite and
-                // non-negative, so their bits sort as the numbers do.
-                let mut cand: Vec<u64> = Vec::with_capacity(leaf.len() * leaf.len() / 2);
-                for i in 0..leaf.len() {
-                    for j in i + 1..leaf.len() {
-                        if !require_compatible || leaf[i].normal.dot(leaf[j].normal) >= normal_cos {
-                            let d2 = (leaf[i].pos - leaf[j].pos).length_squared();
-                            cand.push(u64::from(d2.to_bits()) << 32 | (i as u64) << 8 | j as u64);
-                        }
-                    }
-                }
-                cand.sort_unstable();
-                let mut used = [false; boxtree::LEAF_POINTS];
-                let mut out = Vec::with_capacity(leaf.len() / 2);
-                for c in cand {
-                    let (i, j) = ((c >> 8) as u8 as usize, c as u8 as usize);
-                    if !used[i] && !used[j] {
-                        used[i] = true;
-                        used[j] = true;
-                        out.push(((c & !0xffff_ffff) | (lo + i) as u64, (lo + j) as u32));
-                    }
-                }
-                out
+                leaf_pairs(leaf, require_compatible.then_some(normal_cos), |key| {
+                    let (i, j) = ((key >> 8) as u8 as usize, key as u8 as usize);
+                    ((key & !0xffff_ffff) | (lo + i) as u64, (lo + j) as u32)
+                })
             })
             .collect();
         if edges.is_empty() {
@@ -1024,6 +1023,53 @@ fn simplify(mut pts: Vec<Work>, target: usize, normal_cos: f32) -> Vec<Work> {
             .collect();
     }
     pts
+}
+
+/// The pairs of one leaf (fewer than [`boxtree::LEAF_POINTS`] samples) that greedy matching takes,
+/// shortest first, among pairs with compatible normals (`normal_cos`, or any pair when `None`),
+/// as `pair((squared length bits) << 32 | i << 8 | j)` with i < j.
+///
+/// Keys are distinct, so greedy matching takes exactly the pairs that are, at some point, the
+/// shortest pair of both their samples among the samples still free ("mutual nearest"); rounds
+/// of that need no sort of the candidate pairs.
+fn leaf_pairs<T>(leaf: &[Work], normal_cos: Option<f32>, mut pair: impl FnMut(u64) -> T) -> Vec<T> {
+    const N: usize = boxtree::LEAF_POINTS;
+    let m = leaf.len().min(N);
+    let mut key = [[u64::MAX; N]; N];
+    for i in 0..m {
+        for j in i + 1..m {
+            if normal_cos.is_none_or(|c| leaf[i].normal.dot(leaf[j].normal) >= c) {
+                let d2 = (leaf[i].pos - leaf[j].pos).length_squared();
+                let k = u64::from(d2.to_bits()) << 32 | (i as u64) << 8 | j as u64;
+                key[i][j] = k;
+                key[j][i] = k;
+            }
+        }
+    }
+    let mut out = Vec::with_capacity(m / 2);
+    let mut free: Vec<usize> = (0..m).collect();
+    loop {
+        let mut best = [u64::MAX; N];
+        for &i in &free {
+            best[i] = free.iter().fold(u64::MAX, |b, &j| b.min(key[i][j]));
+        }
+        let mut taken = [false; N];
+        for &i in &free {
+            let k = best[i];
+            let (a, b) = ((k >> 8) as u8 as usize, k as u8 as usize);
+            if k != u64::MAX && a == i && best[b] == k {
+                taken[a] = true;
+                taken[b] = true;
+                out.push(pair(k));
+            }
+        }
+        // A sample with no candidate left stays unmatched.
+        free.retain(|&i| !taken[i] && best[i] != u64::MAX);
+        if free.len() < 2 || !taken.contains(&true) {
+            break;
+        }
+    }
+    out
 }
 
 fn merge(a: &Work, b: &Work) -> Work {
@@ -1103,27 +1149,18 @@ mod tests {
     }
 
     #[test]
-    fn ordered_bits_order_floats_as_total_cmp() {
-        let xs = [
-            f32::NEG_INFINITY,
-            -1e30,
-            -1.5,
-            -f32::MIN_POSITIVE,
-            -1e-45,
-            -0.0,
-            0.0,
-            1e-45,
-            f32::MIN_POSITIVE,
-            1.0,
-            1.0000001,
-            6.5e12,
-            f32::INFINITY,
-        ];
-        for a in xs {
-            for b in xs {
-                assert_eq!(ordered_bits(a).cmp(&ordered_bits(b)), a.total_cmp(&b), "{a} vs {b}");
-            }
+    fn duplicates_are_grouped_in_input_order_even_when_distinct_positions_share_a_hash() {
+        let p = |x: f32| Vec3::new(x, 1.0, -2.0);
+        let positions = [p(1.0), p(2.0), p(1.0), p(3.0), p(2.0), p(1.0), p(-0.0), p(0.0)];
+        for hash in [position_hash as fn(Vec3) -> u64, |_| 7, |v: Vec3| u64::from(v.x.to_bits() % 2)] {
+            let mut groups = Vec::new();
+            duplicate_groups(&positions, hash, |g| groups.push(g.to_vec()));
+            groups.sort();
+            assert_eq!(groups, vec![vec![0, 2, 5], vec![1, 4]]);
         }
+        let mut none = Vec::new();
+        duplicate_groups(&[p(1.0)], position_hash, |g| none.push(g.to_vec()));
+        assert!(none.is_empty());
     }
 
     #[test]

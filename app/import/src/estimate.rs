@@ -222,11 +222,13 @@ impl TopK {
     /// Keeps the `k` smallest of `keys` ([`key`]s; reordered).
     fn fill(&mut self, keys: &mut [u64]) {
         let n = keys.len().min(self.k);
-        if keys.len() > n {
+        if keys.len() <= 48 {
+            keys.sort_unstable();
+        } else {
             keys.select_nth_unstable(n - 1);
+            keys[..n].sort_unstable();
         }
-        let kept = &mut keys[..n];
-        kept.sort_unstable();
+        let kept = &keys[..n];
         for (i, &key) in kept.iter().enumerate() {
             self.d2[i] = f32::from_bits((key >> 32) as u32);
             self.idx[i] = key as u32;
