@@ -928,28 +928,26 @@ fn hierarchy_sort<T: boxtree::HasPosition + Send>(items: &mut [T], node_points: 
 
 /// Split axis (balsa12 §4): candidates are median splits (perfectly balanced) along every axis
 /// whose extent is at least half the longest; among them, the one whose children are the most
-/// compact (smallest worst ratio between the two largest extents of a child's box).
+/// compact (smallest worst ratio between the two largest extents of a child's box). Candidates
+/// are judged on an evenly strided sample of at most [`AXIS_SAMPLE`] points: its median and its
+/// halves' boxes stand for the range's (the split itself is exact).
 fn choose_axis<T: boxtree::HasPosition>(work: &[T]) -> usize {
     let bbox = Aabb::from_points(work.iter().map(boxtree::HasPosition::position));
     let ext = bbox.extent();
     let longest = ext.max_element();
     let mut best = (f32::INFINITY, ext.max_position());
-    if work.len() > 200_000 {
-        // Large regions: the longest axis (evaluating candidates would cost a sort per axis).
-        return best.1;
-    }
+    let step = work.len().div_ceil(AXIS_SAMPLE).max(1);
+    let sample: Vec<Vec3> = work.iter().step_by(step).map(boxtree::HasPosition::position).collect();
     for axis in 0..3 {
         if ext[axis] < 0.5 * longest || ext[axis] <= 0.0 {
             continue;
         }
-        let mut vals: Vec<f32> = work.iter().map(|w| w.position()[axis]).collect();
+        let mut vals: Vec<f32> = sample.iter().map(|p| p[axis]).collect();
         let mid = vals.len() / 2;
         let (_, &mut at, _) = vals.select_nth_unstable_by(mid, f32::total_cmp);
         let mut worst: f32 = 0.0;
         for side in [false, true] {
-            let b = Aabb::from_points(
-                work.iter().map(boxtree::HasPosition::position).filter(|p| (p[axis] >= at) == side),
-            );
+            let b = Aabb::from_points(sample.iter().copied().filter(|p| (p[axis] >= at) == side));
             let mut e = b.extent().to_array();
             e.sort_by(f32::total_cmp);
             let ratio = if e[1] > 0.0 { e[2] / e[1] } else { f32::INFINITY };
@@ -961,6 +959,9 @@ fn choose_axis<T: boxtree::HasPosition>(work: &[T]) -> usize {
     }
     best.1
 }
+
+/// Most points [`choose_axis`] judges candidate splits on.
+const AXIS_SAMPLE: usize = 16_384;
 
 /// Reduces `pts` to `target` samples by collapsing near pairs with compatible normals
 /// (bettio09 §3: shortest edges first; balsa12 §4: nearest neighbour with a compatible normal).
