@@ -159,7 +159,10 @@ impl Job<'_> {
         if step.depth_left == 0 {
             let mut best = [TopK::new(self.search.k); boxtree::LEAF_POINTS];
             let best = &mut best[..step.hi - step.lo];
-            self.search.leaf(path, scratch, best);
+            let normals = (step.lo..step.hi)
+                .enumerate()
+                .fold(0u32, |m, (i, idx)| m | u32::from((self.need_normal)(idx)) << i);
+            self.search.leaf(path, normals, scratch, best);
             for ((o, idx), b) in out.iter_mut().zip(step.lo..step.hi).zip(best.iter()) {
                 *o = self.finish(idx, b);
             }
@@ -219,6 +222,14 @@ impl TopK {
         Self { n: 0, k, d2: [f32::INFINITY; MAX_K + 1], idx: [0; MAX_K + 1] }
     }
 
+    /// Keeps only the `k`-th smallest distance of `keys` (at least `k` [`key`]s; reordered): all
+    /// a spacing needs.
+    fn fill_kth(&mut self, keys: &mut [u64]) {
+        let kth = *keys.select_nth_unstable(self.k - 1).1;
+        self.d2[self.k - 1] = f32::from_bits((kth >> 32) as u32);
+        self.n = self.k;
+    }
+
     /// Keeps the `k` smallest of `keys` ([`key`]s; reordered).
     fn fill(&mut self, keys: &mut [u64]) {
         let n = keys.len().min(self.k);
@@ -274,7 +285,7 @@ impl Soa {
 /// Buffers and state of one thread's leaf searches.
 #[derive(Default)]
 struct Scratch {
-    /// Leaves that some ball reaches: (box index, lo, hi).
+    /// Leaves whose boxes meet the box around the balls: (box index, lo, hi).
     leaves: Vec<(usize, usize, usize)>,
     /// Distances to one leaf.
     dist: Vec<f32>,
@@ -299,11 +310,13 @@ impl LeafSearch<'_> {
     /// The k nearest (the point itself included) of every point of the leaf ending `path`, into
     /// `best` (one empty set per point of the leaf).
     ///
-    /// Each point tries a ball (squared radius `t`): the leaves that some ball reaches are
-    /// gathered by one walk of the boxes, and a point whose ball holds at least k samples keeps
-    /// the k nearest of them (no sample outside the ball can be nearer). The others try again
-    /// with a ball of twice the radius.
-    fn leaf(&self, path: &[PathStep], s: &mut Scratch, best: &mut [TopK]) {
+    /// Each point tries a ball (squared radius `t`): the leaves whose boxes meet the box around
+    /// all the balls are gathered by one walk, each point searches those of them its own ball
+    /// reaches, and a point whose ball holds at least k samples keeps the k nearest of them (no
+    /// sample outside the ball can be nearer). The others try again with a ball of twice the
+    /// radius. `normals` has bit i set when point i needs its neighbours (for a normal), not only
+    /// the distance to the k-th.
+    fn leaf(&self, path: &[PathStep], normals: u32, s: &mut Scratch, best: &mut [TopK]) {
         let leaf = path[path.len() - 1];
         let qs = &self.positions[leaf.lo..leaf.hi];
         let guess = if s.guess > 0.0 && s.guess.is_finite() {
@@ -333,7 +346,7 @@ impl LeafSearch<'_> {
                 .copied()
                 .unwrap_or(path[0]);
             s.leaves.clear();
-            self.walk(qs, &t, pending, &region, start, &mut s.leaves);
+            self.walk(&region, start, &mut s.leaves);
             for (i, &q) in qs.iter().enumerate() {
                 if pending >> i & 1 == 0 {
                     continue;
@@ -347,7 +360,11 @@ impl LeafSearch<'_> {
                     }
                 }
                 if s.keys.len() >= self.k {
-                    best[i].fill(&mut s.keys);
+                    if normals >> i & 1 == 1 {
+                        best[i].fill(&mut s.keys);
+                    } else {
+                        best[i].fill_kth(&mut s.keys);
+                    }
                     pending &= !(1 << i);
                 } else {
                     t[i] = (t[i] * 4.0).max(f32::MIN_POSITIVE);
@@ -358,34 +375,18 @@ impl LeafSearch<'_> {
         s.guess = largest * GROWTH;
     }
 
-    /// Gathers into `out` the leaves under `step` within some pending point's ball (squared
-    /// radii `t`).
-    fn walk(
-        &self,
-        qs: &[Vec3],
-        t: &[f32],
-        pending: u32,
-        region: &kiosk_core::Aabb,
-        step: PathStep,
-        out: &mut Vec<(usize, usize, usize)>,
-    ) {
+    /// Gathers into `out` the leaves under `step` whose boxes meet `region`.
+    fn walk(&self, region: &kiosk_core::Aabb, step: PathStep, out: &mut Vec<(usize, usize, usize)>) {
         let b = &self.boxes[step.index];
         if b.max.cmplt(region.min).any() || b.min.cmpgt(region.max).any() {
             return;
         }
         if step.depth_left == 0 {
-            let reached = qs
-                .iter()
-                .zip(t)
-                .enumerate()
-                .any(|(i, (&q, &t))| pending >> i & 1 == 1 && b.distance_squared(q) <= t);
-            if reached {
-                out.push((step.index, step.lo, step.hi));
-            }
+            out.push((step.index, step.lo, step.hi));
             return;
         }
         for child in step.children() {
-            self.walk(qs, t, pending, region, child, out);
+            self.walk(region, child, out);
         }
     }
 }
@@ -502,14 +503,18 @@ mod tests {
             for path in &paths {
                 let leaf = path[path.len() - 1];
                 let mut found = vec![TopK::new(k + 1); leaf.hi - leaf.lo];
-                search.leaf(path, &mut scratch, &mut found);
-                for (q, got) in (leaf.lo..leaf.hi).zip(found) {
+                search.leaf(path, u32::MAX, &mut scratch, &mut found);
+                // Points that need no normal only get the distance to their k-th neighbour.
+                let mut kth = vec![TopK::new(k + 1); leaf.hi - leaf.lo];
+                search.leaf(path, 0, &mut scratch, &mut kth);
+                for ((q, got), only) in (leaf.lo..leaf.hi).zip(found).zip(kth) {
                     let mut brute: Vec<f32> = pts.iter().map(|p| (*p - pts[q]).length_squared()).collect();
                     brute.sort_by(f32::total_cmp);
                     assert_eq!(&got.d2[..got.n], &brute[..k + 1], "point {q}, k {k}");
                     for (&i, &d2) in got.idx[..got.n].iter().zip(&got.d2) {
                         assert_eq!((pts[i as usize] - pts[q]).length_squared(), d2);
                     }
+                    assert_eq!((only.n, only.d2[k]), (k + 1, brute[k]), "k-th only: point {q}, k {k}");
                 }
             }
         }
