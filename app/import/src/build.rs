@@ -695,9 +695,11 @@ impl Ctx<'_> {
             }
         });
         drop(positions);
-        let merged: Vec<(Vec3, Vec3, [u8; 4], f32)> =
-            pts.iter().zip(&dropped).filter(|(_, d)| !**d).map(|(p, _)| *p).collect();
-        drop(pts);
+        let merged: Vec<(Vec3, Vec3, [u8; 4], f32)> = if dropped.contains(&true) {
+            pts.into_par_iter().zip(dropped).filter(|(_, d)| !*d).map(|(p, _)| p).collect()
+        } else {
+            pts
+        };
         self.timings.merge += lap(&mut clock);
         if merged.len() < 2 {
             return Err(BuildError::Degenerate(format!(
@@ -759,7 +761,7 @@ impl Ctx<'_> {
                 &node.splats,
                 &node.boxes,
                 children,
-                NodeStats { spacing: node.spacing },
+                NodeStats { spacing: node.spacing, data_crc: node.data_crc },
             )?);
         }
         self.done += work.len() as u64;
@@ -775,7 +777,7 @@ impl Ctx<'_> {
             &parent.splats,
             &parent.boxes,
             Some([a.id, b.id]),
-            NodeStats { spacing: parent.spacing },
+            NodeStats { spacing: parent.spacing, data_crc: parent.data_crc },
         )?;
         Ok(Sub { id, samples: parent.stored, spacing: parent.spacing })
     }
@@ -788,6 +790,8 @@ struct NodeOut {
     /// Children as indices into the subtree's node list.
     children: Option<[u32; 2]>,
     spacing: f32,
+    /// Checksum of `splats` and `boxes`.
+    data_crc: u32,
     /// The samples as stored (quantised normals): what the parent is built from (balsa12 §4).
     stored: Vec<Work>,
 }
@@ -812,7 +816,8 @@ fn node_from_sorted(w: Vec<Work>, children: Option<[u32; 2]>, spacing: f32) -> N
         .iter()
         .map(|s| Work { pos: s.position(), normal: s.normal(), radius: s.radius, color: s.color })
         .collect();
-    NodeOut { splats, boxes, children, spacing, stored }
+    let data_crc = kiosk_core::scene::store::node_data_crc(&splats, &boxes);
+    NodeOut { splats, boxes, children, spacing, data_crc, stored }
 }
 
 /// The parent of two nodes: the union of their samples simplified to M. Its spacing keeps the

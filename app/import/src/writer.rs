@@ -35,6 +35,9 @@ impl Drop for StoreWriter {
 pub struct NodeStats {
     /// Average sample spacing.
     pub spacing: f32,
+    /// [`store::node_data_crc`] of the node's splats and boxes (computed by the caller, which
+    /// builds nodes in parallel).
+    pub data_crc: u32,
 }
 
 impl StoreWriter {
@@ -72,6 +75,7 @@ impl StoreWriter {
         stats: NodeStats,
     ) -> std::io::Result<u32> {
         debug_assert_eq!(boxes.len(), box_count(splats.len()));
+        debug_assert_eq!(stats.data_crc, store::node_data_crc(splats, boxes));
         let id = self.nodes.len() as u32;
         let points_offset = self.offset;
         self.out.write_all(bytemuck::cast_slice(splats))?;
@@ -112,7 +116,7 @@ impl StoreWriter {
             radius_avg: (rsum / splats.len().max(1) as f64) as f32,
             radius_max: rmax,
             spacing: stats.spacing,
-            data_crc: store::node_data_crc(splats, boxes),
+            data_crc: stats.data_crc,
             subtree_radius_max,
             reserved: 0,
         });
