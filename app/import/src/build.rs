@@ -1,8 +1,8 @@
 //! The out-of-core hierarchy builder (balsa12 §4).
 //!
-//! 1. [`Builder::push`] takes samples one by one: it keeps the bounding box, a seeded reservoir
-//!    sample of positions, and the samples themselves in memory up to `chunk_points`. When the
-//!    input outgrows that, a kd-tree chosen on the reservoir splits space into cells of about
+//! 1. [`Builder::push`] takes samples one by one: it keeps the bounding box and the samples
+//!    themselves in memory up to `chunk_points`. When the input outgrows that, a kd-tree chosen
+//!    on a seeded random sample of those samples splits space into cells of about
 //!    1/32 of half a chunk (as the input seen so far is spread), and from then on every sample
 //!    goes straight to its cell's temporary file (written by a thread of its own).
 //! 2. [`Builder::finish`] chooses the model origin (the centre of the bounding box, in `f64`) and
@@ -15,7 +15,7 @@
 //!    built bottom-up by simplifying the union of their two children down to `node_points`.
 //! 4. The region roots are joined by the same simplification up to the root.
 //!
-//! Memory is bounded by about `chunk_points` samples plus the reservoir, whatever the input size
+//! Memory is bounded by about `chunk_points` samples plus the cells' buffers, whatever the input size
 //! and order (a region holds at most half a chunk, unless all its samples share one position).
 
 use crate::estimate::{self, Estimate};
@@ -44,7 +44,8 @@ pub struct BuildParams {
     pub radius_factor: f32,
     /// Cosine of the largest angle between normals of samples that may be merged.
     pub merge_normal_cos: f32,
-    /// Reservoir size for choosing the top-level splits.
+    /// Size of the random samples that choose the top-level splits (of the samples in memory
+    /// when the input outgrows it, and of a cell that is split again).
     pub sample_size: usize,
     /// Seed of every random choice (builds are reproducible).
     pub seed: u64,
@@ -272,8 +273,6 @@ pub struct Builder {
     count: u64,
     min: DVec3,
     max: DVec3,
-    reservoir: Vec<DVec3>,
-    rng: rand_pcg::Pcg64,
     tmp_dir: std::path::PathBuf,
 }
 
@@ -288,12 +287,11 @@ impl Builder {
         }
         Ok(Self {
             params,
-            spill: Spill::Memory(Vec::new()),
+            // Address space only: pages are touched as samples arrive.
+            spill: Spill::Memory(Vec::with_capacity(params.chunk_points + 1)),
             count: 0,
             min: DVec3::INFINITY,
             max: DVec3::NEG_INFINITY,
-            reservoir: Vec::new(),
-            rng: rand_pcg::Pcg64::seed_from_u64(params.seed),
             tmp_dir: tmp_dir.to_path_buf(),
         })
     }
@@ -311,22 +309,20 @@ impl Builder {
         self.max = self.max.max(p.pos);
         match &mut self.spill {
             Spill::Memory(v) => {
-                reservoir_offer(
-                    &mut self.reservoir,
-                    self.params.sample_size,
-                    self.count,
-                    p.pos,
-                    &mut self.rng,
-                );
                 v.push(p.into());
                 if v.len() > self.params.chunk_points {
                     // Memory is full: from now on samples go to the cells of a kd-tree chosen on
                     // those seen so far, fine enough that regions can be assembled from whole
                     // subtrees of cells (cells that overflow are split again at the end).
                     let first = std::mem::take(v);
+                    let mut rng = rand_pcg::Pcg64::seed_from_u64(self.params.seed);
+                    let size = self.params.sample_size.min(first.len());
+                    let sample: Vec<DVec3> = rand::seq::index::sample(&mut rng, first.len(), size)
+                        .into_iter()
+                        .map(|i| DVec3::from_array(first[i].pos))
+                        .collect();
                     let cell = (self.params.chunk_points / 2 / CELLS_PER_REGION).max(1);
-                    let tree = TopTree::build(&self.reservoir, self.count, cell);
-                    self.reservoir = Vec::new();
+                    let tree = TopTree::build(&sample, self.count, cell);
                     self.spill = Spill::Cells(CellWriter::start(&self.tmp_dir, tree, first)?);
                 }
             }
@@ -423,7 +419,7 @@ fn writer_counts(w: &StoreWriter, root: u32) -> (u64, u64) {
     (leaf, total)
 }
 
-/// The top of the kd-tree, chosen on the reservoir sample.
+/// The top of the kd-tree, chosen on a random sample of the samples.
 enum TopTree {
     Leaf(usize),
     Split { axis: usize, at: f64, children: Box<[TopTree; 2]> },
