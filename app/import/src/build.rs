@@ -788,7 +788,8 @@ struct NodeOut {
     spacing: f32,
     /// Checksum of `splats` and `boxes`.
     data_crc: u32,
-    /// The samples as stored (quantised normals): what the parent is built from (balsa12 §4).
+    /// The samples as stored (quantised normals): what the parent is built from (balsa12 §4);
+    /// taken by the parent's builder.
     stored: Vec<Work>,
 }
 
@@ -801,12 +802,12 @@ struct SubtreeOut {
 
 fn make_node(mut w: Vec<Work>, children: Option<[u32; 2]>, spacing: f32) -> NodeOut {
     boxtree::sort_spatially(&mut w);
-    node_from_sorted(w, children, spacing)
+    node_from_sorted(&w, children, spacing)
 }
 
 /// A node from samples already in the order of its implicit box hierarchy.
-fn node_from_sorted(w: Vec<Work>, children: Option<[u32; 2]>, spacing: f32) -> NodeOut {
-    let boxes = boxtree::build_boxes(&w);
+fn node_from_sorted(w: &[Work], children: Option<[u32; 2]>, spacing: f32) -> NodeOut {
+    let boxes = boxtree::build_boxes(w);
     let splats: Vec<Splat> = w.iter().map(|s| Splat::new(s.pos, s.normal, s.radius, s.color)).collect();
     let stored = splats
         .iter()
@@ -832,8 +833,8 @@ fn parent_of(a: Vec<Work>, ha: f32, b: Vec<Work>, hb: f32, params: &BuildParams)
 fn build_subtree(work: &mut [Work], h2: &mut [f32], params: &BuildParams) -> SubtreeOut {
     if work.len() <= params.node_points {
         let spacing = (h2.iter().map(|&x| f64::from(x)).sum::<f64>() / h2.len() as f64).sqrt() as f32;
-        let node = node_from_sorted(work.to_vec(), None, spacing);
-        let samples = node.stored.clone();
+        let mut node = node_from_sorted(work, None, spacing);
+        let samples = std::mem::take(&mut node.stored);
         return SubtreeOut { nodes: vec![node], samples, spacing };
     }
     let mid = work.len() / 2;
@@ -848,7 +849,7 @@ fn build_subtree(work: &mut [Work], h2: &mut [f32], params: &BuildParams) -> Sub
         n
     }));
     parent.children = Some([nl - 1, nl + nr - 1]);
-    let samples = parent.stored.clone();
+    let samples = std::mem::take(&mut parent.stored);
     let spacing = parent.spacing;
     nodes.push(parent);
     SubtreeOut { nodes, samples, spacing }
@@ -930,15 +931,14 @@ fn hierarchy_sort<T: boxtree::HasPosition + Send>(items: &mut [T], node_points: 
 /// Split axis (balsa12 §4): candidates are median splits (perfectly balanced) along every axis
 /// whose extent is at least half the longest; among them, the one whose children are the most
 /// compact (smallest worst ratio between the two largest extents of a child's box). Candidates
-/// are judged on an evenly strided sample of at most [`AXIS_SAMPLE`] points: its median and its
-/// halves' boxes stand for the range's (the split itself is exact).
+/// are judged on an evenly strided sample of at most [`AXIS_SAMPLE`] points: its box, its median
+/// and its halves' boxes stand for the range's (the split itself is exact).
 fn choose_axis<T: boxtree::HasPosition>(work: &[T]) -> usize {
-    let bbox = Aabb::from_points(work.iter().map(boxtree::HasPosition::position));
-    let ext = bbox.extent();
-    let longest = ext.max_element();
-    let mut best = (f32::INFINITY, ext.max_position());
     let step = work.len().div_ceil(AXIS_SAMPLE).max(1);
     let sample: Vec<Vec3> = work.iter().step_by(step).map(boxtree::HasPosition::position).collect();
+    let ext = Aabb::from_points(sample.iter().copied()).extent();
+    let longest = ext.max_element();
+    let mut best = (f32::INFINITY, ext.max_position());
     for axis in 0..3 {
         if ext[axis] < 0.5 * longest || ext[axis] <= 0.0 {
             continue;
