@@ -315,14 +315,10 @@ impl Builder {
                     // those seen so far, fine enough that regions can be assembled from whole
                     // subtrees of cells (cells that overflow are split again at the end).
                     let first = std::mem::take(v);
-                    let mut rng = rand_pcg::Pcg64::seed_from_u64(self.params.seed);
-                    let size = self.params.sample_size.min(first.len());
-                    let sample: Vec<DVec3> = rand::seq::index::sample(&mut rng, first.len(), size)
-                        .into_iter()
-                        .map(|i| DVec3::from_array(first[i].pos))
-                        .collect();
+                    let mut reservoir = Reservoir::new(self.params.sample_size, self.params.seed);
+                    first.iter().for_each(|rec| reservoir.offer(DVec3::from_array(rec.pos)));
                     let cell = (self.params.chunk_points / 2 / CELLS_PER_REGION).max(1);
-                    let tree = TopTree::build(&sample, self.count, cell);
+                    let tree = TopTree::build(&reservoir.sample, self.count, cell);
                     self.spill = Spill::Cells(CellWriter::start(&self.tmp_dir, tree, first)?);
                 }
             }
@@ -529,14 +525,28 @@ impl Plan {
     }
 }
 
-/// Offers the `seen`-th position `p` to a reservoir sample of at most `size` positions.
-fn reservoir_offer(sample: &mut Vec<DVec3>, size: usize, seen: u64, p: DVec3, rng: &mut rand_pcg::Pcg64) {
-    if sample.len() < size {
-        sample.push(p);
-    } else {
-        let j = rng.random_range(0..seen);
-        if (j as usize) < size {
-            sample[j as usize] = p;
+/// A seeded reservoir sample of at most `size` of the positions offered.
+struct Reservoir {
+    sample: Vec<DVec3>,
+    size: usize,
+    seen: u64,
+    rng: rand_pcg::Pcg64,
+}
+
+impl Reservoir {
+    fn new(size: usize, seed: u64) -> Self {
+        Self { sample: Vec::new(), size, seen: 0, rng: rand_pcg::Pcg64::seed_from_u64(seed) }
+    }
+
+    fn offer(&mut self, p: DVec3) {
+        self.seen += 1;
+        if self.sample.len() < self.size {
+            self.sample.push(p);
+        } else {
+            let j = self.rng.random_range(0..self.seen);
+            if (j as usize) < self.size {
+                self.sample[j as usize] = p;
+            }
         }
     }
 }
@@ -546,7 +556,8 @@ fn for_each_batch(path: &Path, mut f: impl FnMut(Vec<RawRec>) -> std::io::Result
     let mut file = File::open(path)?;
     loop {
         let mut buf = vec![RawRec::zeroed(); SPILL_BATCH];
-        let got = read_full(&mut file, bytemuck::cast_slice_mut(&mut buf))? / std::mem::size_of::<RawRec>();
+        let got =
+            crate::read_full(&mut file, bytemuck::cast_slice_mut(&mut buf))? / std::mem::size_of::<RawRec>();
         if got == 0 {
             return Ok(());
         }
@@ -557,17 +568,12 @@ fn for_each_batch(path: &Path, mut f: impl FnMut(Vec<RawRec>) -> std::io::Result
 
 /// A seeded reservoir sample of at most `size` positions of a cell file.
 fn sample_file(path: &Path, size: usize, seed: u64) -> std::io::Result<Vec<DVec3>> {
-    let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
-    let mut sample = Vec::new();
-    let mut seen = 0u64;
+    let mut reservoir = Reservoir::new(size, seed);
     for_each_batch(path, |batch| {
-        for rec in &batch {
-            seen += 1;
-            reservoir_offer(&mut sample, size, seen, DVec3::from_array(rec.pos), &mut rng);
-        }
+        batch.iter().for_each(|rec| reservoir.offer(DVec3::from_array(rec.pos)));
         Ok(())
     })?;
-    Ok(sample)
+    Ok(reservoir.sample)
 }
 
 /// Distributes the samples of the file `input` (`total` of them) to new cells, one per leaf of
@@ -600,17 +606,6 @@ fn read_region(cells: &[Cell]) -> std::io::Result<Vec<RawRec>> {
         at += len;
     }
     Ok(recs)
-}
-
-fn read_full(r: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
-    let mut n = 0;
-    while n < buf.len() {
-        match r.read(&mut buf[n..])? {
-            0 => break,
-            k => n += k,
-        }
-    }
-    Ok(n)
 }
 
 /// A finished subtree: its root id and the root's samples (for simplification into the parent).
@@ -673,9 +668,10 @@ impl Ctx<'_> {
         // Merge duplicates (identical stored positions): average their normals and colours. A
         // group of duplicates becomes its first sample; the others are dropped. Samples keep
         // their input order.
+        let mut groups = Vec::new();
+        duplicate_groups(pts.len(), |i| pts[i].0, position_hash, |run| groups.push(run.to_vec()));
         let mut dropped = vec![false; pts.len()];
-        let positions: Vec<Vec3> = pts.iter().map(|p| p.0).collect();
-        duplicate_groups(&positions, position_hash, |run| {
+        for run in &groups {
             let nrm = run.iter().fold(Vec3::ZERO, |a, &k| a + pts[k].1).normalize_or_zero();
             let mut c = [0u32; 4];
             for &k in run {
@@ -689,8 +685,7 @@ impl Ctx<'_> {
             for &k in &run[1..] {
                 dropped[k] = true;
             }
-        });
-        drop(positions);
+        }
         let merged: Vec<(Vec3, Vec3, [u8; 4], f32)> = if dropped.contains(&true) {
             pts.into_par_iter().zip(dropped).filter(|(_, d)| !*d).map(|(p, _)| p).collect()
         } else {
@@ -855,17 +850,22 @@ fn build_subtree(work: &mut [Work], h2: &mut [f32], params: &BuildParams) -> Sub
     SubtreeOut { nodes, samples, spacing }
 }
 
-/// Calls `group` with the indices (ascending) of every set of at least two samples at bit-identical
-/// positions. One integer per sample finds them: `hash` of the position above the sample's index,
+/// Calls `group` with the indices (ascending) of every set of at least two of the `n` samples at
+/// bit-identical positions (sample `i` at `position(i)`). One integer per sample finds them: `hash` of the position above the sample's index,
 /// sorted, so that equal positions are contiguous and in input order; a run of equal hashes
 /// is then split by position (distinct positions may share a hash).
-fn duplicate_groups(positions: &[Vec3], hash: impl Fn(Vec3) -> u64 + Sync, mut group: impl FnMut(&[usize])) {
-    let idx_bits = usize::BITS - (positions.len().max(2) - 1).leading_zeros();
+fn duplicate_groups(
+    n: usize,
+    position: impl Fn(usize) -> Vec3 + Sync,
+    hash: impl Fn(Vec3) -> u64 + Sync,
+    mut group: impl FnMut(&[usize]),
+) {
+    let idx_bits = usize::BITS - (n.max(2) - 1).leading_zeros();
     let mut keys: Vec<u64> =
-        positions.par_iter().enumerate().map(|(i, &p)| hash(p) << idx_bits | i as u64).collect();
+        (0..n).into_par_iter().map(|i| hash(position(i)) << idx_bits | i as u64).collect();
     keys.par_sort_unstable();
     let index = |k: u64| (k & ((1 << idx_bits) - 1)) as usize;
-    let bits = |k: usize| positions[k].to_array().map(f32::to_bits);
+    let bits = |k: usize| position(k).to_array().map(f32::to_bits);
     let mut i = 0;
     while i < keys.len() {
         let mut j = i + 1;
@@ -1049,14 +1049,16 @@ fn leaf_pairs<T>(leaf: &[Work], normal_cos: Option<f32>, mut pair: impl FnMut(u6
         }
     }
     let mut out = Vec::with_capacity(m / 2);
-    let mut free: Vec<usize> = (0..m).collect();
+    // The samples still free that have a candidate left: `free[..nf]`.
+    let mut free: [usize; N] = std::array::from_fn(|i| i);
+    let mut nf = m;
     loop {
         let mut best = [u64::MAX; N];
-        for &i in &free {
-            best[i] = free.iter().fold(u64::MAX, |b, &j| b.min(key[i][j]));
+        for &i in &free[..nf] {
+            best[i] = free[..nf].iter().fold(u64::MAX, |b, &j| b.min(key[i][j]));
         }
         let mut taken = [false; N];
-        for &i in &free {
+        for &i in &free[..nf] {
             let k = best[i];
             let (a, b) = ((k >> 8) as u8 as usize, k as u8 as usize);
             if k != u64::MAX && a == i && best[b] == k {
@@ -1065,9 +1067,20 @@ fn leaf_pairs<T>(leaf: &[Work], normal_cos: Option<f32>, mut pair: impl FnMut(u6
                 out.push(pair(k));
             }
         }
+        if !taken.contains(&true) {
+            break;
+        }
         // A sample with no candidate left stays unmatched.
-        free.retain(|&i| !taken[i] && best[i] != u64::MAX);
-        if free.len() < 2 || !taken.contains(&true) {
+        let before = nf;
+        nf = 0;
+        for f in 0..before {
+            let i = free[f];
+            if !taken[i] && best[i] != u64::MAX {
+                free[nf] = i;
+                nf += 1;
+            }
+        }
+        if nf < 2 {
             break;
         }
     }
@@ -1156,12 +1169,12 @@ mod tests {
         let positions = [p(1.0), p(2.0), p(1.0), p(3.0), p(2.0), p(1.0), p(-0.0), p(0.0)];
         for hash in [position_hash as fn(Vec3) -> u64, |_| 7, |v: Vec3| u64::from(v.x.to_bits() % 2)] {
             let mut groups = Vec::new();
-            duplicate_groups(&positions, hash, |g| groups.push(g.to_vec()));
+            duplicate_groups(positions.len(), |i| positions[i], hash, |g| groups.push(g.to_vec()));
             groups.sort();
             assert_eq!(groups, vec![vec![0, 2, 5], vec![1, 4]]);
         }
         let mut none = Vec::new();
-        duplicate_groups(&[p(1.0)], position_hash, |g| none.push(g.to_vec()));
+        duplicate_groups(1, |_| p(1.0), position_hash, |g| none.push(g.to_vec()));
         assert!(none.is_empty());
     }
 

@@ -163,8 +163,8 @@ impl Job<'_> {
                 .enumerate()
                 .fold(0u32, |m, (i, idx)| m | u32::from((self.need_normal)(idx)) << i);
             self.search.leaf(path, normals, scratch, best);
-            for ((o, idx), b) in out.iter_mut().zip(step.lo..step.hi).zip(best.iter()) {
-                *o = self.finish(idx, b);
+            for (i, (o, b)) in out.iter_mut().zip(best.iter()).enumerate() {
+                *o = self.finish(step.lo + i, b, normals >> i & 1 == 1);
             }
         } else {
             let [l, r] = step.children();
@@ -184,16 +184,16 @@ impl Job<'_> {
     }
 
     /// Spacing and normal of point `idx` from its nearest (itself first: duplicates are merged).
-    fn finish(&self, idx: usize, best: &TopK) -> Estimate {
+    fn finish(&self, idx: usize, best: &TopK, need_normal: bool) -> Estimate {
         let positions = self.search.positions;
         let k = self.search.k - 1;
         let p = positions[idx];
-        let neigh = &best.idx[1..best.n];
         let dk = best.d2[best.n - 1].sqrt();
         let spacing = dk * (std::f32::consts::PI / k as f32).sqrt();
-        if !(self.need_normal)(idx) {
+        if !need_normal {
             return Estimate { normal: Vec3::ZERO, spacing };
         }
+        let neigh = &best.idx[1..best.n];
         let mean = neigh.iter().fold(p, |a, &i| a + positions[i as usize]) / (neigh.len() + 1) as f32;
         let mut cov = Mat3::ZERO;
         for q in std::iter::once(p).chain(neigh.iter().map(|&i| positions[i as usize])) {
@@ -234,6 +234,7 @@ impl TopK {
     fn fill(&mut self, keys: &mut [u64]) {
         let n = keys.len().min(self.k);
         if keys.len() <= 48 {
+            // Small sets (the usual case): one sort is cheaper than a selection and a sort.
             keys.sort_unstable();
         } else {
             keys.select_nth_unstable(n - 1);

@@ -9,4 +9,18 @@ pub mod source;
 pub mod writer;
 
 pub use build::{BuildError, BuildParams, BuildSummary, Builder, Stage};
+
+/// Reads into `buf` until it is full or the input ends; returns the bytes read.
+pub(crate) fn read_full(r: &mut (impl std::io::Read + ?Sized), buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut n = 0;
+    while n < buf.len() {
+        match r.read(&mut buf[n..]) {
+            Ok(0) => break,
+            Ok(k) => n += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(n)
+}
 pub use source::{InputPoint, ReadError, ReadOptions, ReadReport};

@@ -475,15 +475,7 @@ fn read_fixed_rows(
     while done < el.count {
         let rows = batch.min(el.count - done) as usize;
         let want = &mut buf[..rows * size];
-        let mut got = 0;
-        while got < want.len() {
-            match r.read(&mut want[got..]) {
-                Ok(0) => break,
-                Ok(n) => got += n,
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                Err(e) => return Err(PlyError::Io(e)),
-            }
-        }
+        let got = crate::read_full(r, want)?;
         for (i, bytes) in want[..got].chunks_exact(size).enumerate() {
             let mut at = 0;
             for (v, p) in row.values.iter_mut().zip(&el.props) {
