@@ -923,7 +923,7 @@ fn hierarchy_sort<T: boxtree::HasPosition + Send>(items: &mut [T], node_points: 
     }
     let axis = choose_axis(items);
     let mid = items.len() / 2;
-    items.select_nth_unstable_by(mid, |a, b| a.position()[axis].total_cmp(&b.position()[axis]));
+    boxtree::partition_along(items, mid, axis);
     let (l, r) = items.split_at_mut(mid);
     rayon::join(|| hierarchy_sort(l, node_points), || hierarchy_sort(r, node_points));
 }

@@ -63,12 +63,23 @@ fn sort_range<T: HasPosition>(items: &mut [T], depth_left: u32) {
         return;
     }
     let b = Aabb::from_points(items.iter().map(HasPosition::position));
-    let axis = b.extent().max_position();
     let mid = split(0, items.len());
-    items.select_nth_unstable_by(mid, |a, b| a.position()[axis].total_cmp(&b.position()[axis]));
+    partition_along(items, mid, b.extent().max_position());
     let (left, right) = items.split_at_mut(mid);
     sort_range(left, depth_left - 1);
     sort_range(right, depth_left - 1);
+}
+
+/// Reorders `items` so that the item at `mid` is where a sort along `axis` (0, 1 or 2) would put
+/// it, with no item before it greater and none after it smaller (a median partition). One
+/// comparison per axis, chosen once: indexing the position by a run-time axis in every
+/// comparison costs a quarter of the time.
+pub fn partition_along<T: HasPosition>(items: &mut [T], mid: usize, axis: usize) {
+    match axis {
+        0 => items.select_nth_unstable_by(mid, |a, b| a.position().x.total_cmp(&b.position().x)),
+        1 => items.select_nth_unstable_by(mid, |a, b| a.position().y.total_cmp(&b.position().y)),
+        _ => items.select_nth_unstable_by(mid, |a, b| a.position().z.total_cmp(&b.position().z)),
+    };
 }
 
 /// The index ranges of the leaves of the implicit hierarchy over `n` points, in order.
