@@ -157,9 +157,17 @@ fn out_of_core_build_matches_the_in_memory_build() {
     let mem = common::build(&pts, kiosk_import::BuildParams { chunk_points: 1_000_000, ..params });
     assert_eq!(mem.summary.chunks, 1);
     assert_eq!(ooc.summary.leaf_points, mem.summary.leaf_points);
-    for id in 0..ooc.store.nodes().len() as u32 {
-        ooc.store.verify_node(id).expect("valid node");
-        assert!(ooc.store.node(id).point_count as usize <= 1024);
+    for store in [&ooc.store, &mem.store] {
+        for (id, n) in store.nodes().iter().enumerate() {
+            store.verify_node(id as u32).expect("valid node");
+            assert!(n.point_count as usize <= 1024);
+            // An inner node holds as many samples as its larger child, at most M (the leaves of
+            // a region are halved ranges: M/2 to M samples, so nodes above them are as full).
+            if !n.is_leaf() {
+                let larger = n.children.map(|c| store.node(c).point_count).into_iter().max();
+                assert_eq!(Some(n.point_count), larger.map(|l| l.min(1024)), "node {id}");
+            }
+        }
     }
     // The same surface answers: nearest samples agree exactly (same samples at full resolution).
     let diag = f64::from(mem.store.bbox().diagonal());

@@ -812,13 +812,18 @@ fn node_from_sorted(w: &[Work], children: Option<[u32; 2]>, spacing: f32) -> Nod
     NodeOut { splats, boxes, children, spacing, data_crc, stored }
 }
 
-/// The parent of two nodes: the union of their samples simplified to M. Its spacing keeps the
-/// area the children cover: n_p h_p² = n_a h_a² + n_b h_b².
+/// The parent of two nodes: the union of their samples simplified to as many samples as the
+/// larger child holds, at most M. Leaves are halved ranges of M/2 to M samples, so every node
+/// of a region is about as full as its leaves; simplifying to M instead would leave parents of
+/// underfull leaves nearly as dense as their children (one level for little coarsening) at
+/// the cost of a full simplification pass and a larger store. Its spacing keeps the area the
+/// children cover: n_p h_p² = n_a h_a² + n_b h_b².
 fn parent_of(a: Vec<Work>, ha: f32, b: Vec<Work>, hb: f32, params: &BuildParams) -> NodeOut {
     let area = a.len() as f64 * f64::from(ha).powi(2) + b.len() as f64 * f64::from(hb).powi(2);
+    let target = params.node_points.min(a.len().max(b.len()));
     let mut all = a;
     all.extend(b);
-    let simplified = simplify(all, params.node_points, params.merge_normal_cos);
+    let simplified = simplify(all, target, params.merge_normal_cos);
     let spacing = (area / simplified.len() as f64).sqrt() as f32;
     make_node(simplified, None, spacing)
 }
