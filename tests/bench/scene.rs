@@ -1,4 +1,5 @@
 //! `cargo bench --bench scene [-- --points N[,N…]] [--quick] [--tradeoff-only]`: the scene's numbers.
+//! `-- --queries-only A.kstore B.kstore …`: tables 2 and 3 only, on existing stores side by side.
 //!
 //! Prints tables (and writes `target/bench/scene-tradeoff.svg`):
 //! 1. build throughput and peak RSS: a real scan and synthetic statue-like clouds (10 M by
@@ -26,6 +27,28 @@ fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if let Some(i) = args.iter().position(|a| a == "--child-build") {
         return child_build(&args[i + 1], args[i + 2].parse()?, &args[i + 3]);
+    }
+    if let Some(i) = args.iter().position(|a| a == "--queries-only") {
+        // Side by side on existing stores (e.g. built by two versions of the builder).
+        let stores = args[i + 1..]
+            .iter()
+            .map(|p| Ok((p.clone(), kiosk::open_store(Path::new(p))?)))
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        println!(
+            "| model | cut points | fine K=8 µs | coarse K=16 µs | kiddo exact 8-NN µs | fine / kiddo |"
+        );
+        println!("|---|---|---|---|---|---|");
+        for _round in 0..2 {
+            for (name, store) in &stores {
+                query_row(name, store);
+            }
+        }
+        println!("| model | frames | median ms | p95 ms | max ms | median nodes | median points |");
+        println!("|---|---|---|---|---|---|---|");
+        for (name, store) in &stores {
+            cut_row(name, store);
+        }
+        return Ok(());
     }
     let quick = args.iter().any(|a| a == "--quick");
     if args.iter().any(|a| a == "--tradeoff-only") {
