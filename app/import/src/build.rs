@@ -813,17 +813,18 @@ fn node_from_sorted(w: &[Work], children: Option<[u32; 2]>, spacing: f32) -> Nod
 }
 
 /// The parent of two nodes: the union of their samples simplified to as many samples as the
-/// larger child holds, at most M. Leaves are halved ranges of M/2 to M samples, so every node
-/// of a region is about as full as its leaves; simplifying to M instead would leave parents of
-/// underfull leaves nearly as dense as their children (one level for little coarsening) at
-/// the cost of a full simplification pass and a larger store. Its spacing keeps the area the
-/// children cover: n_p h_p² = n_a h_a² + n_b h_b².
+/// larger child holds where that takes only short merges, and to at most M in any case.
+/// Leaves are halved ranges of M/2 to M samples, so every node of a region is about as full as
+/// its leaves; simplifying to M instead would leave parents of underfull leaves nearly as dense
+/// as their children (one level for little coarsening) at the cost of a full simplification
+/// pass and a larger store. Its spacing keeps the area the children cover:
+/// n_p h_p² = n_a h_a² + n_b h_b².
 fn parent_of(a: Vec<Work>, ha: f32, b: Vec<Work>, hb: f32, params: &BuildParams) -> NodeOut {
     let area = a.len() as f64 * f64::from(ha).powi(2) + b.len() as f64 * f64::from(hb).powi(2);
-    let target = params.node_points.min(a.len().max(b.len()));
+    let soft = params.node_points.min(a.len().max(b.len()));
     let mut all = a;
     all.extend(b);
-    let simplified = simplify(all, target, params.merge_normal_cos);
+    let simplified = simplify(all, soft, params.node_points, params.merge_normal_cos);
     let spacing = (area / simplified.len() as f64).sqrt() as f32;
     make_node(simplified, None, spacing)
 }
@@ -969,57 +970,84 @@ fn choose_axis<T: boxtree::HasPosition>(work: &[T]) -> usize {
 /// Most points [`choose_axis`] judges candidate splits on.
 const AXIS_SAMPLE: usize = 16_384;
 
-/// Reduces `pts` to `target` samples by collapsing near pairs with compatible normals
-/// (bettio09 §3: shortest edges first; balsa12 §4: nearest neighbour with a compatible normal).
+/// A merge is short when its length is at most this many times the larger splat radius of
+/// the pair (neighbours on a surface are about 1.25 radii apart, a merged pair stays within 2).
+const MERGE_REACH: f32 = 3.0;
+
+/// Which pairs a simplification pass may collapse.
+#[derive(Clone, Copy)]
+struct MergeRule {
+    /// Cosine of the largest angle between the normals (`None`: any normals).
+    normal_cos: Option<f32>,
+    /// Longest merge, in multiples of the larger radius of the pair (`None`: any length).
+    reach: Option<f32>,
+}
+
+/// Reduces `pts` to `soft` samples by collapsing short near pairs with compatible normals
+/// (bettio09 §3: shortest edges first; balsa12 §4: nearest neighbour with a compatible normal),
+/// then, if short pairs ran out above `hard`, to `hard` by any pairs with compatible normals,
+/// and at last by any pairs. The soft target halves a node's samples only where that keeps the
+/// surface: an isolated sample (the tip of an ear) is not merged with one far away, which would
+/// make a splat as large as the gap.
 /// Each pass takes the samples in spatial order; within each leaf of the implicit box hierarchy
 /// (fewer than 16 spatially close samples) it matches pairs greedily, shortest first; of the
-/// candidate pairs of all leaves, the shortest are collapsed until `target` remain. A pass nearly
-/// halves the samples, so 2M → M takes one or two passes.
+/// candidate pairs of all leaves, the shortest are collapsed until the target remains. A pass
+/// nearly halves the samples, so 2M → M takes one or two passes.
 /// Merged sample: midpoint; normal and colour weighted by splat area; radius covering both.
 ///
 /// The input is the concatenation of two nodes, each in the order of its implicit hierarchy (the
 /// two halves of a kd split): already a spatial order. A pass keeps it: a merged pair takes the
 /// place of its first sample, so later passes need no sort (the caller sorts the result for its
 /// box hierarchy).
-fn simplify(mut pts: Vec<Work>, target: usize, normal_cos: f32) -> Vec<Work> {
-    let mut require_compatible = true;
-    while pts.len() > target {
-        let ranges = boxtree::leaf_ranges(pts.len());
-        // (squared length bits << 32 | i, j), in the order of the leaves.
-        let mut edges: Vec<(u64, u32)> = ranges
-            .par_iter()
-            .flat_map_iter(|&(lo, hi)| {
-                let leaf = &pts[lo..hi];
-                leaf_pairs(leaf, require_compatible.then_some(normal_cos), |key| {
-                    let (i, j) = ((key >> 8) as u8 as usize, key as u8 as usize);
-                    ((key & !0xffff_ffff) | (lo + i) as u64, (lo + j) as u32)
-                })
-            })
-            .collect();
-        if edges.is_empty() {
-            if !require_compatible {
-                // Only possible with a single sample per leaf; never loop forever.
-                break;
+fn simplify(mut pts: Vec<Work>, soft: usize, hard: usize, normal_cos: f32) -> Vec<Work> {
+    let rules = [
+        (soft, MergeRule { normal_cos: Some(normal_cos), reach: Some(MERGE_REACH) }),
+        (hard, MergeRule { normal_cos: Some(normal_cos), reach: None }),
+        (hard, MergeRule { normal_cos: None, reach: None }),
+    ];
+    for (target, rule) in rules {
+        while pts.len() > target {
+            match simplify_pass(&pts, target, rule) {
+                Some(next) => pts = next,
+                None => break,
             }
-            require_compatible = false;
-            continue;
         }
-        let needed = pts.len() - target;
-        if edges.len() > needed {
-            // The `needed` shortest (keys are distinct: each sample is in one pair at most).
-            let mut keys: Vec<u64> = edges.iter().map(|e| e.0).collect();
-            let nth = *keys.select_nth_unstable(needed - 1).1;
-            edges.retain(|e| e.0 <= nth);
-        }
-        // partner[i] = j for the first sample of a pair, i for the second (it is dropped).
-        let mut partner = vec![u32::MAX; pts.len()];
-        for &(key, j) in &edges {
-            let i = key as u32;
-            partner[i as usize] = j;
-            partner[j as usize] = i;
-        }
-        pts = pts
-            .iter()
+    }
+    pts
+}
+
+/// One pass of [`simplify`] towards `target` under `rule`; `None` when no pair qualifies.
+fn simplify_pass(pts: &[Work], target: usize, rule: MergeRule) -> Option<Vec<Work>> {
+    let ranges = boxtree::leaf_ranges(pts.len());
+    // (squared length bits << 32 | i, j), in the order of the leaves.
+    let mut edges: Vec<(u64, u32)> = ranges
+        .par_iter()
+        .flat_map_iter(|&(lo, hi)| {
+            leaf_pairs(&pts[lo..hi], rule, |key| {
+                let (i, j) = ((key >> 8) as u8 as usize, key as u8 as usize);
+                ((key & !0xffff_ffff) | (lo + i) as u64, (lo + j) as u32)
+            })
+        })
+        .collect();
+    if edges.is_empty() {
+        return None;
+    }
+    let needed = pts.len() - target;
+    if edges.len() > needed {
+        // The `needed` shortest (keys are distinct: each sample is in one pair at most).
+        let mut keys: Vec<u64> = edges.iter().map(|e| e.0).collect();
+        let nth = *keys.select_nth_unstable(needed - 1).1;
+        edges.retain(|e| e.0 <= nth);
+    }
+    // partner[i] = j for the first sample of a pair, i for the second (it is dropped).
+    let mut partner = vec![u32::MAX; pts.len()];
+    for &(key, j) in &edges {
+        let i = key as u32;
+        partner[i as usize] = j;
+        partner[j as usize] = i;
+    }
+    Some(
+        pts.iter()
             .zip(&partner)
             .enumerate()
             .filter_map(|(i, (p, &j))| match j {
@@ -1027,26 +1055,26 @@ fn simplify(mut pts: Vec<Work>, target: usize, normal_cos: f32) -> Vec<Work> {
                 j if j as usize > i => Some(merge(p, &pts[j as usize])),
                 _ => None,
             })
-            .collect();
-    }
-    pts
+            .collect(),
+    )
 }
 
 /// The pairs of one leaf (fewer than [`boxtree::LEAF_POINTS`] samples) that greedy matching takes,
-/// shortest first, among pairs with compatible normals (`normal_cos`, or any pair when `None`),
-/// as `pair((squared length bits) << 32 | i << 8 | j)` with i < j.
+/// shortest first, among the pairs `rule` allows, as `pair((squared length bits) << 32 | i << 8 | j)`
+/// with i < j.
 ///
 /// Keys are distinct, so greedy matching takes exactly the pairs that are, at some point, the
 /// shortest pair of both their samples among the samples still free ("mutual nearest"); rounds
 /// of that need no sort of the candidate pairs.
-fn leaf_pairs<T>(leaf: &[Work], normal_cos: Option<f32>, mut pair: impl FnMut(u64) -> T) -> Vec<T> {
+fn leaf_pairs<T>(leaf: &[Work], rule: MergeRule, mut pair: impl FnMut(u64) -> T) -> Vec<T> {
     const N: usize = boxtree::LEAF_POINTS;
     let m = leaf.len().min(N);
     let mut key = [[u64::MAX; N]; N];
     for i in 0..m {
         for j in i + 1..m {
-            if normal_cos.is_none_or(|c| leaf[i].normal.dot(leaf[j].normal) >= c) {
-                let d2 = (leaf[i].pos - leaf[j].pos).length_squared();
+            let d2 = (leaf[i].pos - leaf[j].pos).length_squared();
+            let short = rule.reach.is_none_or(|f| d2 <= (f * leaf[i].radius.max(leaf[j].radius)).powi(2));
+            if short && rule.normal_cos.is_none_or(|c| leaf[i].normal.dot(leaf[j].normal) >= c) {
                 let k = u64::from(d2.to_bits()) << 32 | (i as u64) << 8 | j as u64;
                 key[i][j] = k;
                 key[j][i] = k;
@@ -1181,6 +1209,32 @@ mod tests {
         let mut none = Vec::new();
         duplicate_groups(1, |_| p(1.0), position_hash, |g| none.push(g.to_vec()));
         assert!(none.is_empty());
+    }
+
+    #[test]
+    fn simplification_halves_by_short_merges_and_reaches_m_by_any() {
+        // A 4 × 4 grid (spacing 1, radius 0.8) and two samples far from it and from each other.
+        let sample =
+            |x: f32, y: f32| Work { pos: Vec3::new(x, y, 0.0), normal: Vec3::Z, radius: 0.8, color: [9; 4] };
+        let mut pts: Vec<Work> = (0..16).map(|i| sample((i % 4) as f32, (i / 4) as f32)).collect();
+        pts.extend([sample(100.0, 0.0), sample(200.0, 0.0)]);
+        boxtree::sort_spatially(&mut pts);
+        let lone = |s: &[Work]| s.iter().filter(|w| w.pos.x >= 100.0 && w.radius == 0.8).count();
+        // Soft target 2, M = 18: the grid collapses by short merges into one sample; going
+        // further would take a long merge, so the far samples stay as they are and no splat
+        // grows past the grid.
+        let soft = simplify(pts.clone(), 2, 18, 0.5);
+        assert_eq!(lone(&soft), 2);
+        assert_eq!(soft.len(), 3);
+        assert!(
+            soft.iter().all(|w| w.radius < 5.0),
+            "{:?}",
+            soft.iter().map(|w| w.radius).collect::<Vec<_>>()
+        );
+        // M = 2: reached, by merging far samples.
+        let hard = simplify(pts, 2, 2, 0.5);
+        assert_eq!(hard.len(), 2);
+        assert!(hard.iter().any(|w| w.radius > 40.0));
     }
 
     #[test]
