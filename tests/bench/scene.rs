@@ -34,17 +34,13 @@ fn main() -> anyhow::Result<()> {
             .iter()
             .map(|p| Ok((p.clone(), kiosk::open_store(Path::new(p))?)))
             .collect::<anyhow::Result<Vec<_>>>()?;
-        println!(
-            "| model | cut points | fine K=8 µs | coarse K=16 µs | kiddo exact 8-NN µs | fine / kiddo |"
-        );
-        println!("|---|---|---|---|---|---|");
+        query_header();
         for _round in 0..2 {
             for (name, store) in &stores {
                 query_row(name, store);
             }
         }
-        println!("| model | frames | median ms | p95 ms | max ms | median nodes | median points |");
-        println!("|---|---|---|---|---|---|---|");
+        cut_header();
         for (name, store) in &stores {
             cut_row(name, store);
         }
@@ -89,8 +85,7 @@ fn main() -> anyhow::Result<()> {
 
     // 2. Queries.
     println!("\n## Fine and coarse targets on a 1 px cut (1920×1080), median µs per query");
-    println!("| model | cut points | fine K=8 µs | coarse K=16 µs | kiddo exact 8-NN µs | fine / kiddo |");
-    println!("|---|---|---|---|---|---|");
+    query_header();
     let mut models = vec![("scan".to_string(), kiosk::open_store(&scan_store)?)];
     for (n, p) in &synthetic_stores {
         models.push((format!("synthetic {} M", n / 1_000_000), kiosk::open_store(p)?));
@@ -101,8 +96,7 @@ fn main() -> anyhow::Result<()> {
 
     // 3. Cut update.
     println!("\n## Cut update, camera orbiting and zooming, 1920×1080, 1 px, budget 256 changes/frame");
-    println!("| model | frames | median ms | p95 ms | max ms | median nodes | median points |");
-    println!("|---|---|---|---|---|---|---|");
+    cut_header();
     for (name, store) in &models {
         cut_row(name, store);
     }
@@ -299,6 +293,11 @@ fn time_each(qs: &[DVec3], mut f: impl FnMut(DVec3)) -> f64 {
     median(t)
 }
 
+fn query_header() {
+    println!("| model | cut points | fine K=8 µs | coarse K=16 µs | kiddo exact 8-NN µs | fine / kiddo |");
+    println!("|---|---|---|---|---|---|");
+}
+
 fn query_row(name: &str, store: &MappedStore) {
     let (v, _, _) = mid_view(store);
     let cut = converged_cut(store, &v, 1.0);
@@ -321,6 +320,11 @@ fn query_row(name: &str, store: &MappedStore) {
         );
     });
     println!("| {name} | {} | {fine:.2} | {coarse:.2} | {kiddo_us:.2} | {:.2} |", pts.len(), fine / kiddo_us);
+}
+
+fn cut_header() {
+    println!("| model | frames | median ms | p95 ms | max ms | median nodes | median points |");
+    println!("|---|---|---|---|---|---|---|");
 }
 
 fn cut_row(name: &str, store: &MappedStore) {

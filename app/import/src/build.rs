@@ -857,9 +857,10 @@ fn build_subtree(work: &mut [Work], h2: &mut [f32], params: &BuildParams) -> Sub
 }
 
 /// Calls `group` with the indices (ascending) of every set of at least two of the `n` samples at
-/// bit-identical positions (sample `i` at `position(i)`). One integer per sample finds them: `hash` of the position above the sample's index,
-/// sorted, so that equal positions are contiguous and in input order; a run of equal hashes
-/// is then split by position (distinct positions may share a hash).
+/// bit-identical positions (sample `i` at `position(i)`). One integer per sample finds them:
+/// `hash` of the position above the sample's index, sorted, so that equal positions are
+/// contiguous and in input order; a run of equal hashes is then split by position (distinct
+/// positions may share a hash).
 fn duplicate_groups(
     n: usize,
     position: impl Fn(usize) -> Vec3 + Sync,

@@ -9,6 +9,7 @@ pub mod source;
 pub mod writer;
 
 pub use build::{BuildError, BuildParams, BuildSummary, Builder, Stage};
+pub use source::{InputPoint, ReadError, ReadOptions, ReadReport};
 
 /// Reads into `buf` until it is full or the input ends; returns the bytes read.
 pub(crate) fn read_full(r: &mut (impl std::io::Read + ?Sized), buf: &mut [u8]) -> std::io::Result<usize> {
@@ -23,4 +24,3 @@ pub(crate) fn read_full(r: &mut (impl std::io::Read + ?Sized), buf: &mut [u8]) -
     }
     Ok(n)
 }
-pub use source::{InputPoint, ReadError, ReadOptions, ReadReport};
