@@ -27,7 +27,8 @@ pub fn model_file(dir: &Path) -> anyhow::Result<PathBuf> {
 }
 
 /// Opens an exhibit's model, importing a scan into the cache when needed (the cache key is the
-/// scan's path, size and modification time, so an edited scan is imported again).
+/// scan's path, size and modification time and the builder's settings, so an edited scan is
+/// imported again).
 pub fn open_model(dir: &Path) -> anyhow::Result<MappedStore> {
     let file = model_file(dir)?;
     if file.extension().is_some_and(|e| e == "kstore") {
@@ -35,11 +36,15 @@ pub fn open_model(dir: &Path) -> anyhow::Result<MappedStore> {
     }
     let meta = std::fs::metadata(&file)?;
     let modified = meta.modified().ok().and_then(|m| m.duration_since(std::time::UNIX_EPOCH).ok());
+    let options = ImportOptions::default();
+    // The builder's settings are part of the key: a store built with other settings is not reused.
     let key = format!(
-        "{}-{}-{}",
+        "{}-{}-{}-{:?}-{}",
         file.canonicalize().unwrap_or(file.clone()).display(),
         meta.len(),
-        modified.map_or(0, |d| d.as_secs())
+        modified.map_or(0, |d| d.as_secs()),
+        options.build,
+        kiosk_core::scene::store::VERSION
     );
     let hash = crc32fast::hash(key.as_bytes());
     let cache = std::env::temp_dir().join("isokiosk-cache");
@@ -49,7 +54,7 @@ pub fn open_model(dir: &Path) -> anyhow::Result<MappedStore> {
     if let Ok(s) = crate::open_store(&store) {
         return Ok(s);
     }
-    import(&file, &store, &ImportOptions::default())?;
+    import(&file, &store, &options)?;
     crate::open_store(&store)
 }
 

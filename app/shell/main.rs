@@ -104,6 +104,12 @@ enum Command {
         /// Target samples per node (M).
         #[arg(long, default_value_t = kiosk_import::BuildParams::default().node_points)]
         node_points: usize,
+        /// Speed against accuracy of the splat radii: samples that come with a normal search
+        /// their nearest neighbours for a spacing one in N per group of 16 neighbouring samples;
+        /// the others take the spacing of the nearest that did (1: every sample; see README).
+        #[arg(long, default_value_t = kiosk_import::BuildParams::default().spacing_stride as u32,
+              value_parser = clap::value_parser!(u32).range(1..=16))]
+        spacing_stride: u32,
         /// Skip samples with NaN/∞ coordinates instead of failing.
         #[arg(long)]
         drop_invalid: bool,
@@ -173,9 +179,10 @@ fn main() -> anyhow::Result<()> {
         .init();
     let Some(command) = cli.command else { return run_kiosk(cli.run) };
     match command {
-        Command::Import { scan, output, node_points, drop_invalid, quiet } => {
+        Command::Import { scan, output, node_points, spacing_stride, drop_invalid, quiet } => {
             let mut opts = ImportOptions { progress: !quiet, ..Default::default() };
             opts.build.node_points = node_points;
+            opts.build.spacing_stride = spacing_stride as usize;
             opts.read.drop_invalid = drop_invalid;
             let report = import(&scan, &output, &opts)?;
             for w in &report.warnings {

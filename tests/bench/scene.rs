@@ -8,7 +8,8 @@
 //! 2. fine / coarse target: median µs per query, beside `kiddo`'s exact 8-NN on the same points
 //!    in the same run;
 //! 3. cut update: ms per frame for a moving camera at 1920×1080, 1 px;
-//! 4. speed against accuracy: node size M, search depth and K against query time and error.
+//! 4. speed against accuracy: node size M, search depth and K against query time and error; the
+//!    neighbours k and the spacing stride of the estimation against its time and error.
 
 use glam::{DVec3, Vec3};
 use kiosk::MappedStore;
@@ -26,7 +27,8 @@ type Rng64 = rand_pcg::Pcg64;
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if let Some(i) = args.iter().position(|a| a == "--child-build") {
-        return child_build(&args[i + 1], args[i + 2].parse()?, &args[i + 3]);
+        let stride = args.get(i + 4).map_or(Ok(BuildParams::default().spacing_stride), |s| s.parse())?;
+        return child_build(&args[i + 1], args[i + 2].parse()?, &args[i + 3], stride);
     }
     if let Some(i) = args.iter().position(|a| a == "--queries-only") {
         // Side by side on existing stores (e.g. built by two versions of the builder).
@@ -75,12 +77,18 @@ fn main() -> anyhow::Result<()> {
     );
     println!("|---|---|---|---|---|---|---|---|---|");
     let scan_store = out_dir.join("scan.kstore");
-    child(&format!("scan:{}", scan.display()), 8192, &scan_store)?;
+    child(&format!("scan:{}", scan.display()), 8192, &scan_store, None)?;
     let mut synthetic_stores = Vec::new();
     for &n in &sizes {
         let p = out_dir.join(format!("synthetic-{n}.kstore"));
-        child(&format!("synthetic:{n}"), 8192, &p)?;
+        child(&format!("synthetic:{n}"), 8192, &p, None)?;
         synthetic_stores.push((n, p));
+    }
+    // The same first cloud with the exact spacing of every sample, side by side.
+    if BuildParams::default().spacing_stride != 1 {
+        let p = out_dir.join("synthetic-exact.kstore");
+        child(&format!("synthetic:{}", sizes[0]), 8192, &p, Some(1))?;
+        std::fs::remove_file(p)?;
     }
 
     // 2. Queries.
@@ -110,12 +118,13 @@ fn real_scan() -> PathBuf {
     kiosk::synthetic::dragon_scan()
 }
 
-/// Runs one build in a child process and prints its row.
-fn child(input: &str, m: usize, out: &Path) -> anyhow::Result<()> {
+/// Runs one build in a child process and prints its row (with the default spacing stride unless
+/// one is given).
+fn child(input: &str, m: usize, out: &Path, spacing_stride: Option<usize>) -> anyhow::Result<()> {
     let exe = std::env::current_exe()?;
-    let o = std::process::Command::new(exe)
-        .args(["--child-build", input, &m.to_string(), &out.display().to_string()])
-        .output()?;
+    let mut args = vec!["--child-build".to_string(), input.into(), m.to_string(), out.display().to_string()];
+    args.extend(spacing_stride.map(|s| s.to_string()));
+    let o = std::process::Command::new(exe).args(args).output()?;
     if !o.status.success() {
         anyhow::bail!("build of {input} failed: {}", String::from_utf8_lossy(&o.stderr));
     }
@@ -181,9 +190,9 @@ fn write_synthetic_ply(n: u64, path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn child_build(input: &str, m: usize, out: &str) -> anyhow::Result<()> {
+fn child_build(input: &str, m: usize, out: &str, spacing_stride: usize) -> anyhow::Result<()> {
     let out = Path::new(out);
-    let params = BuildParams { node_points: m, ..BuildParams::default() };
+    let params = BuildParams { node_points: m, spacing_stride, ..BuildParams::default() };
     let tmp = out.parent().unwrap_or(Path::new("."));
     let (path, label, generated) = match input.strip_prefix("synthetic:") {
         Some(n) => {
@@ -197,6 +206,11 @@ fn child_build(input: &str, m: usize, out: &str) -> anyhow::Result<()> {
             let label = path.file_name().map_or("scan".into(), |n| n.to_string_lossy().into_owned());
             (path, label, false)
         }
+    };
+    let label = if spacing_stride == BuildParams::default().spacing_stride {
+        label
+    } else {
+        format!("{label}, spacing stride {spacing_stride}")
     };
     let start = Instant::now();
     let mut b = Builder::new(params, tmp)?;
@@ -416,6 +430,7 @@ fn tradeoff(scan: &Path, out_dir: &Path, quick: bool) -> anyhow::Result<()> {
     }
 
     knn_tradeoff(&pts, dir.path())?;
+    spacing_tradeoff(&pts, quick);
 
     println!("\n## Speed against accuracy: search depth and K of the fine target (M = 8192)");
     println!("| K | depth | µs per query | error median (spacings) | error p95 |");
@@ -510,6 +525,60 @@ fn knn_tradeoff(pts: &[InputPoint], dir: &Path) -> anyhow::Result<()> {
         println!("| {k} | {est:.2} | {build_s:.2} | {e50:.2} | {e90:.2} | {e99:.2} | {:.3} |", r / radius_12);
     }
     Ok(())
+}
+
+/// The spacing stride of the estimation (`BuildParams::spacing_stride`) against its time and the
+/// spacings' error, on the scan's positions and on a synthetic statue: the error against the
+/// exact search of every point (stride 1), and against a smoother reference, the exact spacing
+/// from 32 neighbours, beside which the exact 12-neighbour spacing has its own error.
+fn spacing_tradeoff(scan: &[InputPoint], quick: bool) {
+    use kiosk_import::estimate;
+    println!(
+        "\n## Speed against accuracy: spacing stride (k = 12, spacings only, as for scans with normals)"
+    );
+    println!(
+        "| input | stride | estimate s | relative error vs stride 1: median | p95 | vs 32-NN reference: median | p95 | share below -20 % |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    let mut rng = Rng64::seed_from_u64(7);
+    let n = if quick { 200_000 } else { 2_000_000 };
+    let synthetic: Vec<DVec3> = (0..n).map(|_| synthetic_point(&mut rng).pos).collect();
+    let inputs = [
+        ("scan", scan.iter().map(|p| p.pos).collect::<Vec<_>>()),
+        (if quick { "synthetic 0.2 M" } else { "synthetic 2 M" }, synthetic),
+    ];
+    for (name, pos) in inputs {
+        let c = pos.iter().fold(DVec3::ZERO, |a, p| a + *p) / pos.len() as f64;
+        let mut pts: Vec<Vec3> = pos.iter().map(|p| (*p - c).as_vec3()).collect();
+        pts.sort_by(|a, b| a.to_array().map(f32::to_bits).cmp(&b.to_array().map(f32::to_bits)));
+        pts.dedup();
+        let boxes = estimate::sorted_tree(&mut pts);
+        let spacings = |k: usize, stride: usize| {
+            let t = Instant::now();
+            let e = estimate::estimate(&pts, &boxes, k, stride, &|_| false).expect("distinct points");
+            (t.elapsed().as_secs_f64(), e.into_iter().map(|e| f64::from(e.spacing)).collect::<Vec<_>>())
+        };
+        let (_, reference) = spacings(32, 1);
+        let (_, exact) = spacings(12, 1);
+        for stride in [1usize, 2, 4, 8, 16] {
+            // The fastest of two runs: the machine is shared.
+            let (t1, h) = spacings(12, stride);
+            let (t2, _) = spacings(12, stride);
+            let rel = |base: &[f64]| -> Vec<f64> { h.iter().zip(base).map(|(a, b)| a / b - 1.0).collect() };
+            let (vs_exact, vs_ref) = (rel(&exact), rel(&reference));
+            let abs = |v: &[f64]| -> Vec<f64> { v.iter().map(|x| x.abs()).collect() };
+            let below = vs_ref.iter().filter(|&&x| x < -0.2).count() as f64 / vs_ref.len() as f64;
+            println!(
+                "| {name} | {stride} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.1} % |",
+                t1.min(t2),
+                median(abs(&vs_exact)),
+                pct(abs(&vs_exact), 0.95),
+                median(abs(&vs_ref)),
+                pct(abs(&vs_ref), 0.95),
+                below * 100.0
+            );
+        }
+    }
 }
 
 fn plot(path: &Path, m: &[(String, f64, f64)], k: &[(u32, Vec<(f64, f64)>)]) -> anyhow::Result<()> {

@@ -77,3 +77,41 @@ fn corrupted_node_data_is_found_by_verification() {
     assert_eq!(s.verify_node(0), Err(StoreError::Checksum { what: "node 0 data".into() }));
     assert!(s.verify_node(1).is_ok());
 }
+
+#[test]
+fn import_takes_a_spacing_stride_and_refuses_one_out_of_range() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let scan = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/scans/stanford-bunny/bun_zipper.ply");
+    let import = |stride: &str, out: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_kiosk"))
+            .args(["import", "--quiet", "--spacing-stride", stride])
+            .arg(&scan)
+            .arg("-o")
+            .arg(dir.path().join(out))
+            .output()
+            .expect("run kiosk")
+    };
+    let mut radii = Vec::new();
+    for stride in ["1", "8"] {
+        let o = import(stride, &format!("s{stride}.kstore"));
+        assert!(o.status.success(), "stride {stride}: {}", String::from_utf8_lossy(&o.stderr));
+        let store = kiosk::open_store(&dir.path().join(format!("s{stride}.kstore"))).expect("store");
+        let leaves: Vec<f32> = (0..store.nodes().len() as u32)
+            .filter(|&id| store.node(id).is_leaf())
+            .flat_map(|id| store.splats(id).iter().map(|s| s.radius).collect::<Vec<_>>())
+            .collect();
+        radii.push(leaves);
+    }
+    // Same samples in the same order; some radii shared from a neighbour, none lost.
+    assert_eq!(radii[0].len(), radii[1].len());
+    let differ = radii[0].iter().zip(&radii[1]).filter(|(a, b)| a != b).count();
+    assert!(differ > radii[0].len() / 4, "only {differ} of {} radii differ", radii[0].len());
+    assert!(radii[1].iter().all(|r| r.is_finite() && *r > 0.0));
+    for bad in ["0", "17"] {
+        let o = import(bad, "bad.kstore");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains("spacing-stride"), "stride {bad}: {err}");
+        assert!(!dir.path().join("bad.kstore").exists());
+    }
+}

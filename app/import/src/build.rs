@@ -40,6 +40,10 @@ pub struct BuildParams {
     pub chunk_points: usize,
     /// Neighbours for normal and spacing estimation.
     pub knn: usize,
+    /// Samples with a normal of their own search their neighbours for a spacing one in this
+    /// many per leaf of 16 neighbouring samples; the others take the spacing of the nearest that
+    /// did (1: every sample searches; see [`estimate::estimate`]).
+    pub spacing_stride: usize,
     /// Splat radius = `radius_factor` × local spacing.
     pub radius_factor: f32,
     /// Cosine of the largest angle between normals of samples that may be merged.
@@ -57,6 +61,7 @@ impl Default for BuildParams {
             node_points: 8192,
             chunk_points: 4_000_000,
             knn: 12,
+            spacing_stride: 8,
             radius_factor: 0.8,
             merge_normal_cos: 0.5,
             sample_size: 1_000_000,
@@ -283,6 +288,13 @@ impl Builder {
             return Err(BuildError::Params(format!(
                 "node_points must be ≥ 16 and chunk_points ≥ 4 × node_points (got {} and {})",
                 params.node_points, params.chunk_points
+            )));
+        }
+        if !(1..=boxtree::LEAF_POINTS).contains(&params.spacing_stride) {
+            return Err(BuildError::Params(format!(
+                "spacing_stride must be 1 to {} (got {})",
+                boxtree::LEAF_POINTS,
+                params.spacing_stride
             )));
         }
         Ok(Self {
@@ -717,8 +729,9 @@ impl Ctx<'_> {
         self.timings.order += lap(&mut clock);
         let boxes = boxtree::build_boxes(&positions);
         let need_normal = |k: usize| sorted[k].0 == Vec3::ZERO;
-        let est = estimate::estimate(&positions, &boxes, self.params.knn, &need_normal)
-            .ok_or_else(|| BuildError::Degenerate("fewer than 2 distinct points".into()))?;
+        let est =
+            estimate::estimate(&positions, &boxes, self.params.knn, self.params.spacing_stride, &need_normal)
+                .ok_or_else(|| BuildError::Degenerate("fewer than 2 distinct points".into()))?;
         drop(boxes);
         self.timings.estimate += lap(&mut clock);
         let radius_factor = self.params.radius_factor;
@@ -1139,6 +1152,23 @@ fn merge(a: &Work, b: &Work) -> Work {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn settings_out_of_range_are_an_error_that_names_them() {
+        let dir = Path::new("/tmp");
+        for (params, name) in [
+            (BuildParams { node_points: 8, ..Default::default() }, "node_points"),
+            (BuildParams { chunk_points: 1000, ..Default::default() }, "chunk_points"),
+            (BuildParams { spacing_stride: 0, ..Default::default() }, "spacing_stride"),
+            (BuildParams { spacing_stride: 17, ..Default::default() }, "spacing_stride"),
+        ] {
+            match Builder::new(params, dir) {
+                Err(BuildError::Params(msg)) => assert!(msg.contains(name), "{msg}"),
+                other => panic!("{params:?}: {:?}", other.map(|_| ())),
+            }
+        }
+        assert!(Builder::new(BuildParams { spacing_stride: 16, ..Default::default() }, dir).is_ok());
+    }
 
     #[test]
     fn a_spill_directory_that_cannot_be_written_is_an_error() {

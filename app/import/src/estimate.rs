@@ -119,6 +119,11 @@ pub const MAX_K: usize = 32;
 /// `k` nearest neighbours (clamped to 2..=[`MAX_K`]). `None` when there are fewer than two
 /// distinct points.
 ///
+/// `stride` trades accuracy for speed: in every leaf of the implicit hierarchy (at most
+/// [`boxtree::LEAF_POINTS`] neighbouring points), only every `stride`-th point that needs no
+/// normal searches its neighbours; the others take the spacing of the nearest point of their
+/// leaf that did. 1 searches for every point.
+///
 /// The search is exact and batched by leaf of the implicit hierarchy, in the order of the
 /// points: each point first tries a ball a little larger than the k-nearest balls of the leaf
 /// before (neighbouring leaves have similar spacing), and only grows it when it holds fewer
@@ -127,6 +132,7 @@ pub fn estimate(
     positions: &[Vec3],
     boxes: &[kiosk_core::Aabb],
     k: usize,
+    stride: usize,
     need_normal: &(dyn Fn(usize) -> bool + Sync),
 ) -> Option<Vec<Estimate>> {
     if positions.len() < 2 {
@@ -136,7 +142,7 @@ pub fn estimate(
     let centroid = positions.iter().fold(Vec3::ZERO, |a, p| a + *p) / positions.len() as f32;
     let soa = Soa::new(positions);
     let search = LeafSearch { positions, soa: &soa, boxes, k: k + 1 };
-    let job = Job { search, centroid, need_normal };
+    let job = Job { search, centroid, need_normal, stride: stride.max(1) };
     let mut out = vec![Estimate { normal: Vec3::ZERO, spacing: 0.0 }; positions.len()];
     let root = PathStep::root(positions.len());
     job.descend(root, &mut Vec::with_capacity(64), &mut Scratch::default(), &mut out);
@@ -150,6 +156,7 @@ struct Job<'a> {
     search: LeafSearch<'a>,
     centroid: Vec3,
     need_normal: &'a (dyn Fn(usize) -> bool + Sync),
+    stride: usize,
 }
 
 impl Job<'_> {
@@ -162,9 +169,15 @@ impl Job<'_> {
             let normals = (step.lo..step.hi)
                 .enumerate()
                 .fold(0u32, |m, (i, idx)| m | u32::from((self.need_normal)(idx)) << i);
-            self.search.leaf(path, normals, scratch, best);
+            let searched = (0..best.len()).step_by(self.stride).fold(normals, |m, i| m | 1 << i);
+            self.search.leaf(path, searched, normals, scratch, best);
             for (i, (o, b)) in out.iter_mut().zip(best.iter()).enumerate() {
-                *o = self.finish(step.lo + i, b, normals >> i & 1 == 1);
+                if searched >> i & 1 == 1 {
+                    *o = self.finish(step.lo + i, b, normals >> i & 1 == 1);
+                }
+            }
+            if searched.count_ones() as usize != best.len() {
+                self.share_spacing(step.lo, searched, out);
             }
         } else {
             let [l, r] = step.children();
@@ -181,6 +194,19 @@ impl Job<'_> {
             }
         }
         path.pop();
+    }
+
+    /// Gives each point of the leaf starting at `lo` that was not `searched` (bit i for point i)
+    /// the spacing of the nearest point that was (a normal it never needs).
+    fn share_spacing(&self, lo: usize, searched: u32, out: &mut [Estimate]) {
+        let pts = &self.search.positions[lo..lo + out.len()];
+        for i in (0..out.len()).filter(|i| searched >> i & 1 == 0) {
+            let nearest = (0..out.len())
+                .filter(|j| searched >> j & 1 == 1)
+                .min_by(|&a, &b| pts[a].distance_squared(pts[i]).total_cmp(&pts[b].distance_squared(pts[i])))
+                .unwrap_or(i);
+            out[i] = Estimate { normal: Vec3::ZERO, spacing: out[nearest].spacing };
+        }
     }
 
     /// Spacing and normal of point `idx` from its nearest (itself first: duplicates are merged).
@@ -315,9 +341,9 @@ impl LeafSearch<'_> {
     /// all the balls are gathered by one walk, each point searches those of them its own ball
     /// reaches, and a point whose ball holds at least k samples keeps the k nearest of them (no
     /// sample outside the ball can be nearer). The others try again with a ball of twice the
-    /// radius. `normals` has bit i set when point i needs its neighbours (for a normal), not only
-    /// the distance to the k-th.
-    fn leaf(&self, path: &[PathStep], normals: u32, s: &mut Scratch, best: &mut [TopK]) {
+    /// radius. Only the points with bit i of `searched` set search; `normals` has bit i set when
+    /// point i needs its neighbours (for a normal), not only the distance to the k-th.
+    fn leaf(&self, path: &[PathStep], searched: u32, normals: u32, s: &mut Scratch, best: &mut [TopK]) {
         let leaf = path[path.len() - 1];
         let qs = &self.positions[leaf.lo..leaf.hi];
         let guess = if s.guess > 0.0 && s.guess.is_finite() {
@@ -327,7 +353,7 @@ impl LeafSearch<'_> {
             b.extent().length_squared().max(f32::MIN_POSITIVE)
         };
         let mut t = [guess; boxtree::LEAF_POINTS];
-        let mut pending: u32 = (1 << qs.len()) - 1;
+        let mut pending: u32 = searched & ((1u64 << qs.len()) - 1) as u32;
         while pending != 0 {
             // The region every pending ball lies in (widened by a rounding margin); the walk
             // starts from the lowest box of the path that strictly contains it (samples of other
@@ -372,7 +398,7 @@ impl LeafSearch<'_> {
                 }
             }
         }
-        let largest = best.iter().map(|b| b.d2[b.n - 1]).fold(0.0, f32::max);
+        let largest = best.iter().filter(|b| b.n > 0).map(|b| b.d2[b.n - 1]).fold(0.0, f32::max);
         s.guess = largest * GROWTH;
     }
 
@@ -504,10 +530,10 @@ mod tests {
             for path in &paths {
                 let leaf = path[path.len() - 1];
                 let mut found = vec![TopK::new(k + 1); leaf.hi - leaf.lo];
-                search.leaf(path, u32::MAX, &mut scratch, &mut found);
+                search.leaf(path, u32::MAX, u32::MAX, &mut scratch, &mut found);
                 // Points that need no normal only get the distance to their k-th neighbour.
                 let mut kth = vec![TopK::new(k + 1); leaf.hi - leaf.lo];
-                search.leaf(path, 0, &mut scratch, &mut kth);
+                search.leaf(path, u32::MAX, 0, &mut scratch, &mut kth);
                 for ((q, got), only) in (leaf.lo..leaf.hi).zip(found).zip(kth) {
                     let mut brute: Vec<f32> = pts.iter().map(|p| (*p - pts[q]).length_squared()).collect();
                     brute.sort_by(f32::total_cmp);
@@ -522,11 +548,59 @@ mod tests {
     }
 
     #[test]
+    fn a_stride_searches_some_points_and_shares_their_spacing() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(5);
+        // Uneven density, so that neighbouring points have different spacings.
+        let mut pts: Vec<Vec3> = (0..5000)
+            .map(|_| {
+                let x = rng.random::<f32>().powi(3);
+                Vec3::new(x, rng.random::<f32>(), 0.01 * (x * 40.0).sin())
+            })
+            .collect();
+        let boxes = sorted_tree(&mut pts);
+        let need = |i: usize| i % 7 == 3;
+        let exact = estimate(&pts, &boxes, 12, 1, &need).expect("enough points");
+        for stride in [2usize, 4, 8, 16] {
+            let est = estimate(&pts, &boxes, 12, stride, &need).expect("enough points");
+            let (mut searched, mut shared) = (0, 0);
+            for path in boxtree::leaf_paths(pts.len()) {
+                let leaf = path[path.len() - 1];
+                let is_searched = |idx: usize| (idx - leaf.lo).is_multiple_of(stride) || need(idx);
+                for idx in leaf.lo..leaf.hi {
+                    if is_searched(idx) {
+                        // Searched points, and every point that needs a normal, are exact.
+                        assert_eq!(est[idx], exact[idx], "stride {stride}, point {idx}");
+                        searched += 1;
+                        continue;
+                    }
+                    // The others: the spacing of the nearest searched point of their leaf.
+                    let nearest = (leaf.lo..leaf.hi)
+                        .filter(|&j| is_searched(j))
+                        .min_by(|&a, &b| {
+                            pts[a].distance_squared(pts[idx]).total_cmp(&pts[b].distance_squared(pts[idx]))
+                        })
+                        .expect("a searched point in every leaf");
+                    assert_eq!(est[idx].spacing, exact[nearest].spacing, "stride {stride}, point {idx}");
+                    assert_eq!(est[idx].normal, Vec3::ZERO);
+                    if est[idx].spacing != exact[idx].spacing {
+                        shared += 1;
+                    }
+                }
+            }
+            assert!(
+                searched < pts.len() && shared > pts.len() / 4,
+                "stride {stride}: {searched} searched, {shared} shared"
+            );
+        }
+    }
+
+    #[test]
     fn spacing_of_a_grid_is_its_step() {
         let mut pts: Vec<Vec3> =
             (0..2500).map(|i| Vec3::new((i % 50) as f32 * 0.01, (i / 50) as f32 * 0.01, 0.0)).collect();
         let boxes = sorted_tree(&mut pts);
-        let est = estimate(&pts, &boxes, 12, &|_| true).expect("enough points");
+        let est = estimate(&pts, &boxes, 12, 1, &|_| true).expect("enough points");
         let interior: Vec<f32> = pts
             .iter()
             .zip(&est)
