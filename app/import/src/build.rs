@@ -1032,21 +1032,32 @@ fn simplify(mut pts: Vec<Work>, soft: usize, hard: usize, normal_cos: f32) -> Ve
 
 /// One pass of [`simplify`] towards `target` under `rule`; `None` when no pair qualifies.
 fn simplify_pass(pts: &[Work], target: usize, rule: MergeRule) -> Option<Vec<Work>> {
-    let ranges = boxtree::leaf_ranges(pts.len());
-    // (squared length bits << 32 | i, j), in the order of the leaves.
-    let mut edges: Vec<(u64, u32)> = ranges
-        .par_iter()
-        .flat_map_iter(|&(lo, hi)| {
-            leaf_pairs(&pts[lo..hi], rule, |key| {
-                let (i, j) = ((key >> 8) as u8 as usize, key as u8 as usize);
-                ((key & !0xffff_ffff) | (lo + i) as u64, (lo + j) as u32)
+    // (squared length bits << 32 | i, j), in the order of the ranges.
+    let pairs_in = |ranges: Vec<(usize, usize)>| -> Vec<(u64, u32)> {
+        ranges
+            .par_iter()
+            .flat_map_iter(|&(lo, hi)| {
+                leaf_pairs(&pts[lo..hi], rule, |key| {
+                    let (i, j) = ((key >> 8) as u8 as usize, key as u8 as usize);
+                    ((key & !0xffff_ffff) | (lo + i) as u64, (lo + j) as u32)
+                })
             })
-        })
-        .collect();
+            .collect()
+    };
+    let needed = pts.len() - target;
+    let depth = boxtree::depth_for(pts.len());
+    // A pass that needs few merges (the last few of a halving) matches within the leaves'
+    // halves or quarters: a quarter of the pairs to weigh per sample, or less, and still more
+    // candidates than it takes. Where those hold too few, it matches within the leaves.
+    let finer = (1..=2).take_while(|&d| needed << (d + 1) <= pts.len()).last().unwrap_or(0);
+    let mut edges =
+        if finer > 0 { pairs_in(boxtree::ranges_at_depth(pts.len(), depth + finer)) } else { Vec::new() };
+    if edges.len() < needed {
+        edges = pairs_in(boxtree::leaf_ranges(pts.len()));
+    }
     if edges.is_empty() {
         return None;
     }
-    let needed = pts.len() - target;
     if edges.len() > needed {
         // The `needed` shortest (keys are distinct: each sample is in one pair at most).
         let mut keys: Vec<u64> = edges.iter().map(|e| e.0).collect();
@@ -1266,6 +1277,38 @@ mod tests {
         let hard = simplify(pts, 2, 2, 0.5);
         assert_eq!(hard.len(), 2);
         assert!(hard.iter().any(|w| w.radius > 40.0));
+    }
+
+    #[test]
+    fn a_pass_that_needs_few_merges_matches_in_finer_ranges_or_else_in_the_leaves() {
+        // 64 samples on a line, spacing 1 (a little more at every fourth, so lengths differ).
+        let line = |normal: &dyn Fn(usize) -> Vec3| -> Vec<Work> {
+            (0..64)
+                .map(|i| Work {
+                    pos: Vec3::new(i as f32 + (i / 4) as f32 * 0.01, 0.0, 0.0),
+                    normal: normal(i),
+                    radius: 0.8,
+                    color: [0; 4],
+                })
+                .collect()
+        };
+        let rule = MergeRule { normal_cos: Some(0.5), reach: Some(MERGE_REACH) };
+        // 4 merges of 64: ranges of 2 or 3 samples hold enough candidates; the merges are of
+        // neighbours (a merged splat covers both: half the spacing plus the radius).
+        let out = simplify_pass(&line(&|_| Vec3::Z), 60, rule).expect("pairs");
+        assert_eq!(out.len(), 60);
+        assert!(
+            out.iter().all(|w| w.radius <= 0.5 + 0.8 + 0.01),
+            "{:?}",
+            out.iter().map(|w| w.radius).collect::<Vec<_>>()
+        );
+        // Neighbours with opposite normals: no pair within those ranges; the leaves have pairs
+        // two apart (within 3 radii).
+        let out =
+            simplify_pass(&line(&|i| if i % 2 == 0 { Vec3::Z } else { -Vec3::Z }), 60, rule).expect("pairs");
+        assert_eq!(out.len(), 60);
+        assert!(out.iter().all(|w| w.normal.z.abs() == 1.0));
+        assert_eq!(out.iter().filter(|w| w.radius > 1.0 + 0.8 - 0.01).count(), 4);
     }
 
     #[test]

@@ -84,6 +84,12 @@ pub fn partition_along<T: HasPosition>(items: &mut [T], mid: usize, axis: usize)
 
 /// The index ranges of the leaves of the implicit hierarchy over `n` points, in order.
 pub fn leaf_ranges(n: usize) -> Vec<(usize, usize)> {
+    ranges_at_depth(n, depth_for(n))
+}
+
+/// The ranges of the boxes `depth` levels below the root of the implicit hierarchy over `n`
+/// points (deeper than the leaves: the leaves' ranges halved again), in order.
+pub fn ranges_at_depth(n: usize, depth: u32) -> Vec<(usize, usize)> {
     fn rec(lo: usize, hi: usize, depth_left: u32, out: &mut Vec<(usize, usize)>) {
         if depth_left == 0 {
             out.push((lo, hi));
@@ -95,7 +101,7 @@ pub fn leaf_ranges(n: usize) -> Vec<(usize, usize)> {
     }
     let mut out = Vec::new();
     if n > 0 {
-        rec(0, n, depth_for(n), &mut out);
+        rec(0, n, depth, &mut out);
     }
     out
 }
