@@ -20,7 +20,7 @@
 
 use crate::estimate::{self, Estimate};
 use crate::source::InputPoint;
-use crate::writer::{NodeStats, StoreWriter};
+use crate::writer::{NodeSink, NodeStats, PendingNode, StoreWriter};
 use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, Vec3};
 use kiosk_core::scene::boxtree;
@@ -351,10 +351,9 @@ impl Builder {
         }
         let origin = (self.min + self.max) * 0.5;
         let params = self.params;
-        let mut writer = StoreWriter::create(out)?;
         let mut ctx = Ctx {
             params,
-            writer: &mut writer,
+            sink: NodeSink::start(StoreWriter::create(out)?)?,
             done: 0,
             total: self.count,
             progress,
@@ -396,6 +395,7 @@ impl Builder {
         };
         let timings = ctx.timings;
         let largest_region = ctx.largest_region;
+        let writer = ctx.sink.finish()?;
         let root = root.id;
         let levels = writer.node(root).height + 1;
         let nodes = u64::from(root) + 1;
@@ -629,7 +629,7 @@ struct Sub {
 
 struct Ctx<'a> {
     params: BuildParams,
-    writer: &'a mut StoreWriter,
+    sink: NodeSink,
     done: u64,
     total: u64,
     progress: &'a mut dyn FnMut(Stage),
@@ -757,17 +757,18 @@ impl Ctx<'_> {
     /// its nodes in post order so that stores are identical whatever the scheduling.
     fn split(&mut self, work: &mut [Work], h2: &mut [f32]) -> Result<Sub, BuildError> {
         let built = build_subtree(work, h2, &self.params);
-        let base = self.writer.node_count();
-        let mut last = None;
-        for node in &built.nodes {
-            let children = node.children.map(|c| c.map(|i| base + i));
-            last = Some(self.writer.add_node(
-                &node.splats,
-                &node.boxes,
-                children,
-                NodeStats { spacing: node.spacing, data_crc: node.data_crc },
-            )?);
-        }
+        let base = self.sink.next_id();
+        let nodes = built
+            .nodes
+            .into_iter()
+            .map(|node| PendingNode {
+                children: node.children.map(|c| c.map(|i| base + i)),
+                stats: NodeStats { spacing: node.spacing, data_crc: node.data_crc },
+                splats: node.splats,
+                boxes: node.boxes,
+            })
+            .collect();
+        let last = self.sink.send(nodes)?;
         self.done += work.len() as u64;
         (self.progress)(Stage::Build(self.done, self.total));
         let id = last.ok_or_else(|| BuildError::Degenerate("empty region".into()))?;
@@ -777,12 +778,13 @@ impl Ctx<'_> {
     /// Makes the parent of two subtrees by simplifying the union of their samples.
     fn join(&mut self, a: Sub, b: Sub) -> Result<Sub, BuildError> {
         let parent = parent_of(a.samples, a.spacing, b.samples, b.spacing, &self.params);
-        let id = self.writer.add_node(
-            &parent.splats,
-            &parent.boxes,
-            Some([a.id, b.id]),
-            NodeStats { spacing: parent.spacing, data_crc: parent.data_crc },
-        )?;
+        let node = PendingNode {
+            splats: parent.splats,
+            boxes: parent.boxes,
+            children: Some([a.id, b.id]),
+            stats: NodeStats { spacing: parent.spacing, data_crc: parent.data_crc },
+        };
+        let id = self.sink.send(vec![node])?.ok_or_else(|| BuildError::Degenerate("no parent".into()))?;
         Ok(Sub { id, samples: parent.stored, spacing: parent.spacing })
     }
 }

@@ -173,3 +173,85 @@ impl StoreWriter {
         Ok(self.offset)
     }
 }
+
+/// A node for [`NodeSink::send`].
+pub struct PendingNode {
+    /// Spatially sorted splats.
+    pub splats: Vec<Splat>,
+    /// Their boxes.
+    pub boxes: Vec<Aabb>,
+    /// Children (ids of nodes sent before).
+    pub children: Option<[u32; 2]>,
+    /// Statistics for the index record.
+    pub stats: NodeStats,
+}
+
+/// A [`StoreWriter`] on a thread of its own: nodes are numbered as they are sent and written, in
+/// that order, while the builder goes on. Writing a big store is throttled by the kernel's
+/// write-back (4.6 s of a 50 M build), which would otherwise leave the other core idle. One batch
+/// is written while the next waits in the builder's hands, so memory stays bounded.
+pub struct NodeSink {
+    next_id: u32,
+    tx: Option<std::sync::mpsc::SyncSender<Vec<PendingNode>>>,
+    thread: Option<std::thread::JoinHandle<std::io::Result<StoreWriter>>>,
+}
+
+impl NodeSink {
+    /// Starts the writing thread.
+    pub fn start(mut writer: StoreWriter) -> std::io::Result<Self> {
+        let next_id = writer.node_count();
+        // Rendezvous: a send waits until the thread has taken the batch before.
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<PendingNode>>(0);
+        let thread = std::thread::Builder::new().name("store writer".into()).spawn(move || {
+            for batch in rx {
+                for n in batch {
+                    writer.add_node(&n.splats, &n.boxes, n.children, n.stats)?;
+                }
+            }
+            Ok(writer)
+        })?;
+        Ok(Self { next_id, tx: Some(tx), thread: Some(thread) })
+    }
+
+    /// Id the next node sent will have.
+    pub fn next_id(&self) -> u32 {
+        self.next_id
+    }
+
+    /// Queues `nodes` (children before parents); returns the id of the last one, `None` for none.
+    pub fn send(&mut self, nodes: Vec<PendingNode>) -> std::io::Result<Option<u32>> {
+        let n = nodes.len() as u32;
+        if n == 0 {
+            return Ok(None);
+        }
+        match &self.tx {
+            Some(tx) if tx.send(nodes).is_ok() => {
+                self.next_id += n;
+                Ok(Some(self.next_id - 1))
+            }
+            // The thread stopped: its error says why.
+            _ => Err(self.join().err().unwrap_or_else(|| std::io::Error::other("the store writer stopped"))),
+        }
+    }
+
+    /// Waits for every node to be written and returns the writer.
+    pub fn finish(mut self) -> std::io::Result<StoreWriter> {
+        self.join()
+    }
+
+    fn join(&mut self) -> std::io::Result<StoreWriter> {
+        self.tx = None;
+        match self.thread.take().map(std::thread::JoinHandle::join) {
+            Some(Ok(result)) => result,
+            Some(Err(_)) => Err(std::io::Error::other("the store writer panicked")),
+            None => Err(std::io::Error::other("the store writer stopped")),
+        }
+    }
+}
+
+impl Drop for NodeSink {
+    fn drop(&mut self) {
+        // A build that failed: the writer is dropped with its partial file.
+        let _ = self.join();
+    }
+}
