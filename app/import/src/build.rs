@@ -41,8 +41,8 @@ pub struct BuildParams {
     /// Neighbours for normal and spacing estimation.
     pub knn: usize,
     /// Samples with a normal of their own search their neighbours for a spacing one in this
-    /// many per leaf of 16 neighbouring samples; the others take the spacing of the nearest that
-    /// did (1: every sample searches; see [`estimate::estimate`]).
+    /// many per leaf of 8–15 neighbouring samples; the others take the spacing of the nearest
+    /// that did (1: every sample searches; see [`estimate::estimate`]).
     pub spacing_stride: usize,
     /// Splat radius = `radius_factor` × local spacing.
     pub radius_factor: f32,
@@ -1168,7 +1168,8 @@ mod tests {
 
     #[test]
     fn settings_out_of_range_are_an_error_that_names_them() {
-        let dir = Path::new("/tmp");
+        let tmp = std::env::temp_dir();
+        let dir = tmp.as_path();
         for (params, name) in [
             (BuildParams { node_points: 8, ..Default::default() }, "node_points"),
             (BuildParams { chunk_points: 1000, ..Default::default() }, "chunk_points"),

@@ -119,10 +119,10 @@ pub const MAX_K: usize = 32;
 /// `k` nearest neighbours (clamped to 2..=[`MAX_K`]). `None` when there are fewer than two
 /// distinct points.
 ///
-/// `stride` trades accuracy for speed: in every leaf of the implicit hierarchy (at most
-/// [`boxtree::LEAF_POINTS`] neighbouring points), only every `stride`-th point that needs no
-/// normal searches its neighbours; the others take the spacing of the nearest point of their
-/// leaf that did. 1 searches for every point.
+/// `stride` trades accuracy for speed: in every leaf of the implicit hierarchy (fewer than
+/// [`boxtree::LEAF_POINTS`] neighbouring points, at least half as many), only every `stride`-th
+/// point searches its neighbours, and every point that needs a normal; the others take the
+/// spacing of the nearest point of their leaf that did. 1 searches for every point.
 ///
 /// The search is exact and batched by leaf of the implicit hierarchy, in the order of the
 /// points: each point first tries a ball a little larger than the k-nearest balls of the leaf
