@@ -1,5 +1,6 @@
 //! The scene: scan readers, the hierarchy builder, the store, the cut and the queries.
 
+mod ascii;
 mod corpus;
 mod extremes;
 mod oracles;

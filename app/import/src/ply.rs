@@ -7,6 +7,8 @@
 
 use std::io::BufRead;
 
+mod ascii;
+
 /// Scalar types of PLY, with both the classic and the sized spellings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Scalar {
@@ -317,134 +319,44 @@ pub fn read_body(
     mut visit: impl FnMut(usize, u64, &Row) -> Result<(), PlyError>,
 ) -> Result<Vec<String>, PlyError> {
     let mut warnings = Vec::new();
+    if header.format == Format::Ascii {
+        let extra = ascii::read_rows(r, header, &mut visit)?;
+        if extra > 0 {
+            warnings.push(format!("{extra} extra line(s) after the last element ignored"));
+        }
+        return Ok(warnings);
+    }
+    let big = header.format == Format::BinaryBe;
     let mut row = Row::default();
-    let mut line_no = header.lines;
-    let mut line = String::new();
     let mut bytes = Vec::new();
     for (ei, el) in header.elements.iter().enumerate() {
         row.values.clear();
         row.values.resize(el.props.len(), f64::NAN);
         row.lists.resize_with(el.props.len(), Vec::new);
-        if let (Format::BinaryLe | Format::BinaryBe, Some(size)) = (header.format, el.row_size()) {
-            read_fixed_rows(r, el, ei, size, header.format == Format::BinaryBe, &mut row, &mut visit)?;
+        if let Some(size) = el.row_size() {
+            read_fixed_rows(r, el, ei, size, big, &mut row, &mut visit)?;
             continue;
         }
         for ri in 0..el.count {
-            let rerr = |line: Option<usize>, msg: String| PlyError::Row {
-                element: el.name.clone(),
-                row: ri + 1,
-                line,
-                msg,
-            };
-            match header.format {
-                Format::Ascii => {
-                    // Skip blank lines.
-                    loop {
-                        line.clear();
-                        let n = r.read_line(&mut line).map_err(|e| match e.kind() {
-                            std::io::ErrorKind::InvalidData => {
-                                rerr(Some(line_no + 1), "line is not valid UTF-8 text".into())
-                            }
-                            _ => PlyError::Io(e),
-                        })?;
-                        line_no += 1;
-                        if n == 0 {
-                            return Err(rerr(
-                                None,
-                                format!("unexpected end of file: {} of {} rows present", ri, el.count),
-                            ));
-                        }
-                        if !line.trim().is_empty() {
-                            break;
-                        }
-                    }
-                    parse_ascii_row(&line, el, &mut row).map_err(|m| rerr(Some(line_no), m))?;
-                }
-                Format::BinaryLe | Format::BinaryBe => {
-                    let big = header.format == Format::BinaryBe;
-                    read_binary_row(r, el, big, &mut row, &mut bytes).map_err(|e| match e {
-                        BinErr::Eof => {
-                            rerr(None, format!("unexpected end of file: {} of {} rows present", ri, el.count))
-                        }
-                        BinErr::Io(e) => PlyError::Io(e),
-                    })?;
-                }
-            }
-            visit(ei, ri, &row).map_err(|e| match e {
-                PlyError::Row { element, row, line: None, msg } if header.format == Format::Ascii => {
-                    PlyError::Row { element, row, line: Some(line_no), msg }
-                }
-                other => other,
+            read_binary_row(r, el, big, &mut row, &mut bytes).map_err(|e| match e {
+                BinErr::Eof => PlyError::Row {
+                    element: el.name.clone(),
+                    row: ri + 1,
+                    line: None,
+                    msg: format!("unexpected end of file: {} of {} rows present", ri, el.count),
+                },
+                BinErr::Io(e) => PlyError::Io(e),
             })?;
+            visit(ei, ri, &row)?;
         }
     }
     // Anything after the last element?
-    if header.format == Format::Ascii {
-        let mut extra = 0usize;
-        loop {
-            line.clear();
-            match r.read_line(&mut line) {
-                Ok(0) | Err(_) => break,
-                Ok(_) if line.trim().is_empty() => {}
-                Ok(_) => extra += 1,
-            }
-        }
-        if extra > 0 {
-            warnings.push(format!("{extra} extra line(s) after the last element ignored"));
-        }
-    } else {
-        let mut rest = Vec::new();
-        let n = r.read_to_end(&mut rest)?;
-        if n > 0 {
-            warnings.push(format!("{n} extra byte(s) after the last element ignored"));
-        }
+    let mut rest = Vec::new();
+    let n = r.read_to_end(&mut rest)?;
+    if n > 0 {
+        warnings.push(format!("{n} extra byte(s) after the last element ignored"));
     }
     Ok(warnings)
-}
-
-fn parse_ascii_row(line: &str, el: &Element, row: &mut Row) -> Result<(), String> {
-    let mut tok = line.split_whitespace();
-    let mut next = |what: &str, ty: Scalar| -> Result<f64, String> {
-        let t = tok.next().ok_or_else(|| format!("missing value for property '{what}'"))?;
-        parse_value(t, ty).map_err(|m| format!("property '{what}': {m}"))
-    };
-    for (pi, p) in el.props.iter().enumerate() {
-        match p.kind {
-            PropKind::Scalar(t) => row.values[pi] = next(&p.name, t)?,
-            PropKind::List { count, item } => {
-                let n = next(&p.name, count)?;
-                if n < 0.0 {
-                    return Err(format!("property '{}': negative list length {n}", p.name));
-                }
-                let list = &mut row.lists[pi];
-                list.clear();
-                for _ in 0..n as u64 {
-                    list.push(next(&p.name, item)?);
-                }
-            }
-        }
-    }
-    if tok.next().is_some() {
-        return Err(format!("more values than the {} properties declared", el.props.len()));
-    }
-    Ok(())
-}
-
-fn parse_value(t: &str, ty: Scalar) -> Result<f64, String> {
-    match ty.range() {
-        Some((lo, hi)) => {
-            let v: i64 = t.parse().map_err(|_| format!("'{}' is not an integer", short(t)))?;
-            let v = v as f64;
-            if v < lo || v > hi {
-                return Err(format!("{v} out of range for {}", ty.name()));
-            }
-            Ok(v)
-        }
-        None => {
-            let v: f64 = t.parse().map_err(|_| format!("'{}' is not a number", short(t)))?;
-            Ok(if ty == Scalar::F32 { f64::from(v as f32) } else { v })
-        }
-    }
 }
 
 enum BinErr {

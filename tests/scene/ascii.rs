@@ -1,0 +1,165 @@
+//! The ASCII PLY reader, which reads in blocks of lines parsed in parallel, against the binary
+//! reader on the same mesh: every row, across block boundaries, blank lines and CRLF ends; and
+//! its errors, which must name the row and line a line-by-line reader would.
+
+use kiosk_import::ply::{self, PlyError, Row};
+use kiosk_import::source::{self, ReadOptions};
+use std::fmt::Write as _;
+use std::io::BufReader;
+
+/// A mesh of `n` vertices (float position, uchar colour, int label) and `2 n` triangles, as an
+/// ASCII and as a binary little-endian PLY. The ASCII body has blank lines and CRLF line ends
+/// here and there, and spans several of the reader's blocks (1 MiB) for n ≥ 40 000.
+fn mesh(n: u32) -> (String, Vec<u8>) {
+    let head = |format: &str| {
+        format!(
+            "ply\nformat {format} 1.0\nelement vertex {n}\nproperty float x\nproperty float y\n\
+             property float z\nproperty uchar red\nproperty int label\nelement face {}\n\
+             property list uchar int vertex_indices\nend_header\n",
+            2 * n
+        )
+    };
+    let mut ascii = head("ascii");
+    let mut bin = head("binary_little_endian").into_bytes();
+    for i in 0..n {
+        // Coordinates with many digits, tiny and large: `{}` of an f32 reads back exactly.
+        let f = i as f32;
+        let p = [f * 1.000_123_4e-3, (f * 0.618).sin() * 1.0e4, -f / 7.0];
+        let (red, label) = ((i % 256) as u8, i as i32 - 1000);
+        let end = if i % 97 == 0 { "\r\n" } else { "\n" };
+        let _ = write!(ascii, "{} {} {} {red} {label}{end}", p[0], p[1], p[2]);
+        if i % 1001 == 0 {
+            ascii.push_str("  \t\n");
+        }
+        for v in p {
+            bin.extend_from_slice(&v.to_le_bytes());
+        }
+        bin.push(red);
+        bin.extend_from_slice(&label.to_le_bytes());
+    }
+    for i in 0..2 * n {
+        let t = [i / 2, (i / 2 + 1) % n, (i / 2 + 2 + i % 2) % n];
+        let _ = writeln!(ascii, "3 {} {} {}", t[0], t[1], t[2]);
+        bin.push(3);
+        for v in t {
+            bin.extend_from_slice(&(v as i32).to_le_bytes());
+        }
+    }
+    (ascii, bin)
+}
+
+/// Every row of a body as (element, row, values, lists).
+fn rows(bytes: &[u8]) -> Result<Vec<(usize, u64, Vec<f64>, Vec<Vec<f64>>)>, PlyError> {
+    let mut r = BufReader::new(bytes);
+    let header = ply::read_header(&mut r)?;
+    let mut out = Vec::new();
+    ply::read_body(&mut r, &header, |ei, ri, row: &Row| {
+        // NaN (the value slot of a list) compared by bits.
+        let values = row.values.iter().map(|v| if v.is_nan() { -0.0 } else { *v }).collect();
+        out.push((ei, ri, values, row.lists.clone()));
+        Ok(())
+    })?;
+    Ok(out)
+}
+
+#[test]
+fn ascii_rows_equal_binary_rows_across_blocks() {
+    let (ascii, bin) = mesh(60_000);
+    assert!(ascii.len() > 4 << 20, "the body must span several blocks ({} bytes)", ascii.len());
+    let (a, b) = (rows(ascii.as_bytes()).expect("ascii"), rows(&bin).expect("binary"));
+    assert_eq!(a.len(), 180_000);
+    assert_eq!(a, b);
+    // And through the scan reader: the same points, with face normals, either way.
+    let opts = ReadOptions::default();
+    let (pa, ra) = source::read_ply_bytes(ascii.as_bytes(), &opts).expect("ascii points");
+    let (pb, rb) = source::read_ply_bytes(&bin, &opts).expect("binary points");
+    assert_eq!((ra.points, ra.faces_used), (60_000, 120_000));
+    assert_eq!((ra.points, ra.faces_used), (rb.points, rb.faces_used));
+    assert_eq!(pa, pb);
+}
+
+/// Replaces the text of line `line` (1-based) of a file.
+fn with_line(text: &str, line: usize, new: &str) -> String {
+    let mut lines: Vec<&str> = text.split('\n').collect();
+    lines[line - 1] = new;
+    lines.join("\n")
+}
+
+/// The 1-based file line of vertex row `row` (1-based) of [`mesh`]'s ASCII text.
+fn line_of_vertex(text: &str, row: usize) -> usize {
+    let header = 11;
+    let mut seen = 0;
+    for (i, l) in text.split('\n').enumerate().skip(header) {
+        if !l.trim().is_empty() {
+            seen += 1;
+            if seen == row {
+                return i + 1;
+            }
+        }
+    }
+    panic!("no row {row}");
+}
+
+#[test]
+fn errors_in_later_blocks_name_their_row_and_line() {
+    let (ascii, _) = mesh(60_000);
+    let row = 50_001;
+    let line = line_of_vertex(&ascii, row);
+    let bad = with_line(&ascii, line, "1 2 oops 3 4");
+    let e = rows(bad.as_bytes()).expect_err("a bad number").to_string();
+    assert_eq!(e, format!("element 'vertex' row {row} (line {line}): property 'z': 'oops' is not a number"));
+
+    // A value out of range in a face row near the end.
+    let lines = ascii.split('\n').count();
+    let bad = with_line(&ascii, lines - 2, "3 1 2 99999999999");
+    let e = rows(bad.as_bytes()).expect_err("out of range").to_string();
+    assert!(e.contains(&format!("element 'face' row 119999 (line {})", lines - 2)), "{e}");
+    assert!(e.contains("99999999999 out of range for int32"), "{e}");
+
+    // Of two errors, the earlier row's, even when the visit finds it and the parser the later.
+    let first = line_of_vertex(&ascii, 30_000);
+    let bad = with_line(&with_line(&ascii, first, "nan 0 0 1 1"), line, "1 2 oops 3 4");
+    let e = source::read_ply_bytes(bad.as_bytes(), &ReadOptions::default()).expect_err("nan").to_string();
+    assert!(e.starts_with(&format!("element 'vertex' row 30000 (line {first}): non-finite")), "{e}");
+}
+
+#[test]
+fn a_truncated_ascii_body_says_how_many_rows_it_has() {
+    let (ascii, _) = mesh(60_000);
+    // Cut in the middle of a face line: the partial line is the last row and is short.
+    let cut = &ascii[..ascii.len() - 1_000_003];
+    let e = rows(cut.as_bytes()).expect_err("truncated").to_string();
+    assert!(e.starts_with("element 'face' row "), "{e}");
+    // Cut at a line end: the rows are all there up to it.
+    let end = cut.rfind('\n').expect("a line end") + 1;
+    let e = rows(&cut.as_bytes()[..end]).expect_err("truncated").to_string();
+    let faces = ascii[..end].lines().skip(11).filter(|l| !l.trim().is_empty()).count() - 60_000;
+    assert_eq!(
+        e,
+        format!("element 'face' row {}: unexpected end of file: {faces} of 120000 rows present", faces + 1)
+    );
+}
+
+#[test]
+fn a_line_without_end_is_an_error_not_a_whole_file_in_memory() {
+    let (ascii, _) = mesh(10);
+    let body = ascii.find("end_header\n").expect("header") + "end_header\n".len();
+    let mut bytes = ascii.as_bytes()[..body].to_vec();
+    bytes.extend(std::iter::repeat_n(b'7', 65 << 20));
+    let e = rows(&bytes).expect_err("overlong").to_string();
+    assert_eq!(
+        e,
+        "element 'vertex' row 1 (line 12): line longer than 64 MiB (binary data in an ASCII body?)"
+    );
+}
+
+#[test]
+fn extra_lines_after_the_last_element_are_counted_across_blocks() {
+    let (ascii, _) = mesh(1000);
+    let extra = "1 2 3\n".repeat(300_000);
+    let text = format!("{ascii}{extra}\n \n");
+    let mut r = BufReader::new(text.as_bytes());
+    let header = ply::read_header(&mut r).expect("header");
+    let warnings = ply::read_body(&mut r, &header, |_, _, _| Ok(())).expect("tolerated");
+    assert_eq!(warnings, ["300000 extra line(s) after the last element ignored"]);
+}
