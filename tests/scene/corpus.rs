@@ -281,6 +281,32 @@ fn non_finite_coordinates_name_the_row_or_are_dropped() {
     assert!(rep.warnings.iter().any(|w| w.contains("1 vertex row(s) with non-finite coordinates dropped")));
 }
 
+/// A dropped vertex keeps its place for the faces: the others keep their own triangles'
+/// normals, its triangles give nothing, and an index past the vertices names the face row.
+#[test]
+fn dropped_vertices_keep_face_indices_right() {
+    let head = "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\nproperty float z\n\
+                element face 3\nproperty list uchar int vertex_indices\nend_header\n";
+    // Vertex 0 is invalid; 1..4 are a unit square in z = 0 (two triangles facing +z); the third
+    // face uses the dropped vertex and would tilt vertex 4's normal.
+    let ply = format!("{head}nan 0 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 1 2 3\n3 1 3 4\n3 0 4 1\n");
+    let opts = ReadOptions { drop_invalid: true, ..ReadOptions::default() };
+    let (pts, rep) = source::read_ply_bytes(ply.as_bytes(), &opts).expect("dropped");
+    assert_eq!((pts.len(), rep.points, rep.faces_used), (4, 4, 3));
+    assert_eq!(pts[0].pos, glam::DVec3::ZERO);
+    for p in &pts {
+        assert_eq!(p.normal, glam::Vec3::Z, "{p:?}");
+        assert!(p.radius > 0.0, "{p:?}");
+    }
+    let bad = format!("{head}nan 0 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 1 2 3\n3 1 3 5\n3 1 3 4\n");
+    let e = source::read_ply_bytes(bad.as_bytes(), &opts).expect_err("index 5 of 5 vertices").to_string();
+    assert_eq!(
+        e,
+        "element 'face' row 2 (line 16): vertex index 5 is out of range: the file has 5 vertices \
+         (indices start at 0)"
+    );
+}
+
 #[test]
 fn truncated_binary_body_names_the_row() {
     let mut ply = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n".to_vec();

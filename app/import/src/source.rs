@@ -118,28 +118,69 @@ pub fn read_file(path: &Path, opts: &ReadOptions, sink: &mut Sink<'_>) -> Result
 /// Vertices buffered to apply face normals.
 #[derive(Default)]
 struct Buffered {
+    /// Every vertex row, in order (a dropped one as a non-finite placeholder, so that face
+    /// indices stay right; placeholders are never passed on).
     points: Vec<InputPoint>,
-    face_normals: Vec<DVec3>,
+    /// Per vertex, once a triangle is applied: the sum of its triangles' area-weighted normals,
+    /// and the largest of their circumradii.
+    faces: Vec<(DVec3, f64)>,
+    /// Triangles waiting for the vertices (OBJ, or PLY files whose faces come first).
     tris: Vec<[u32; 3]>,
 }
 
 impl Buffered {
-    /// Records the triangles (a fan) of a polygon; its area-weighted normal goes to its vertices
-    /// in [`Buffered::finish`]. A polygon with fewer than 3 vertices or a negative index is an
-    /// error (a broken mesh).
-    fn add_polygon(&mut self, idx: &[f64]) -> Result<(), String> {
+    /// Takes the triangles (a fan) of a polygon: applied at once when every vertex is read
+    /// (`vertices_read`), else in [`Buffered::finish`]. A polygon with fewer than 3 vertices or
+    /// an index out of range is an error (a broken mesh).
+    fn add_polygon(&mut self, idx: &[f64], vertices_read: bool) -> Result<(), String> {
         if idx.len() < 3 {
             return Err(format!("polygon with {} vertex index(es); a face needs at least 3", idx.len()));
         }
         if let Some(bad) = idx.iter().find(|&&i| !(0.0..f64::from(u32::MAX)).contains(&i)) {
             return Err(format!("vertex index {bad} is out of range"));
         }
+        let n = self.points.len();
+        if vertices_read && let Some(bad) = idx.iter().find(|&&i| i as usize >= n) {
+            return Err(format!(
+                "vertex index {bad} is out of range: the file has {n} vertices (indices start at 0)"
+            ));
+        }
         for k in 1..idx.len() - 1 {
-            self.tris.push([idx[0], idx[k], idx[k + 1]].map(|i| i as u32));
+            let t = [idx[0], idx[k], idx[k + 1]].map(|i| i as u32);
+            if vertices_read { self.apply(t) } else { self.tris.push(t) }
         }
         Ok(())
     }
 
+    /// Adds a triangle's area-weighted normal and circumradius to its vertices (all read).
+    fn apply(&mut self, t: [u32; 3]) {
+        if self.faces.is_empty() {
+            self.faces = vec![(DVec3::ZERO, 0.0); self.points.len()];
+        }
+        let [a, b, c] = t.map(|i| self.points[i as usize].pos);
+        if !(a.is_finite() && b.is_finite() && c.is_finite()) {
+            // A dropped vertex: its triangles give nothing to the others.
+            return;
+        }
+        // Cross product length = 2 × area: area weighting for free.
+        let nrm = (b - a).cross(c - a);
+        // Every point of a triangle is within its circumradius of a vertex, so discs of that
+        // radius at the vertices leave no hole (capped by the longest edge for slivers, whose
+        // circumradius explodes).
+        let (ab, bc, ca) = ((b - a).length(), (c - b).length(), (a - c).length());
+        let longest = ab.max(bc).max(ca);
+        let area2 = nrm.length();
+        let circum = if area2 > 0.0 { ab * bc * ca / (2.0 * area2) } else { longest };
+        let r = circum.min(longest);
+        for i in t {
+            let f = &mut self.faces[i as usize];
+            f.0 += nrm;
+            f.1 = f.1.max(r);
+        }
+    }
+
+    /// Applies the waiting triangles and passes the vertices on with their face normals (where
+    /// they have none of their own) and radii.
     fn finish(mut self, report: &mut ReadReport, sink: &mut Sink<'_>) -> Result<(), ReadError> {
         let n = self.points.len();
         if let Some(t) = self.tris.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
@@ -148,34 +189,18 @@ impl Buffered {
                 t.iter().max().copied().unwrap_or(0)
             )));
         }
-        let mut face_radius = vec![0.0f64; if self.tris.is_empty() { 0 } else { n }];
-        if !self.tris.is_empty() {
-            self.face_normals = vec![DVec3::ZERO; n];
-            for t in &self.tris {
-                let [a, b, c] = t.map(|i| self.points[i as usize].pos);
-                // Cross product length = 2 × area: area weighting for free.
-                let nrm = (b - a).cross(c - a);
-                // Every point of a triangle is within its circumradius of a vertex, so discs of
-                // that radius at the vertices leave no hole (capped by the longest edge for
-                // slivers, whose circumradius explodes).
-                let (ab, bc, ca) = ((b - a).length(), (c - b).length(), (a - c).length());
-                let longest = ab.max(bc).max(ca);
-                let area2 = nrm.length();
-                let circum = if area2 > 0.0 { ab * bc * ca / (2.0 * area2) } else { longest };
-                let r = circum.min(longest);
-                for i in t {
-                    self.face_normals[*i as usize] += nrm;
-                    face_radius[*i as usize] = face_radius[*i as usize].max(r);
-                }
-            }
+        for t in std::mem::take(&mut self.tris) {
+            self.apply(t);
         }
-        let has_face_normals = !self.face_normals.is_empty();
         for (i, mut p) in self.points.into_iter().enumerate() {
-            if p.normal == Vec3::ZERO && has_face_normals {
-                p.normal = self.face_normals[i].try_normalize().map_or(Vec3::ZERO, |v| v.as_vec3());
+            if !p.pos.is_finite() {
+                continue;
             }
-            if let Some(r) = face_radius.get(i) {
-                p.radius = *r as f32;
+            if let Some(&(nrm, r)) = self.faces.get(i) {
+                if p.normal == Vec3::ZERO {
+                    p.normal = nrm.try_normalize().map_or(Vec3::ZERO, |v| v.as_vec3());
+                }
+                p.radius = r as f32;
             }
             sink(p).map_err(ReadError::Sink)?;
             report.points += 1;
@@ -265,6 +290,16 @@ pub fn read_ply(
             if !(x.is_finite() && y.is_finite() && z.is_finite()) {
                 if opts.drop_invalid {
                     dropped += 1;
+                    if use_faces {
+                        // Kept in place (never passed on), so that face indices stay right.
+                        let pos = DVec3::new(x, y, z);
+                        buffered.points.push(InputPoint {
+                            pos,
+                            normal: Vec3::ZERO,
+                            color: [0; 4],
+                            radius: 0.0,
+                        });
+                    }
                     return Ok(());
                 }
                 return Err(PlyError::Row {
@@ -307,7 +342,8 @@ pub fn read_ply(
             && (use_faces || row.lists[li].len() < 3)
         {
             let to_row = |msg| PlyError::Row { element: "face".into(), row: ri + 1, line: None, msg };
-            buffered.add_polygon(&row.lists[li]).map_err(to_row)?;
+            // Faces after the vertices are applied as they are read.
+            buffered.add_polygon(&row.lists[li], vi < fi).map_err(to_row)?;
             report.faces_used += 1;
         }
         Ok(())
@@ -408,7 +444,7 @@ pub fn read_obj(
                     // 1-based, negative = relative to the end.
                     idx.push(if i < 0 { n + i as f64 } else { i as f64 - 1.0 });
                 }
-                buffered.add_polygon(&idx).map_err(|m| unusable(line_no, m))?;
+                buffered.add_polygon(&idx, false).map_err(|m| unusable(line_no, m))?;
                 report.faces_used += 1;
             }
             _ => {}
@@ -423,13 +459,7 @@ pub fn read_obj(
     if report.rows > opts.face_vertex_limit {
         buffered.tris.clear();
     }
-    let placeholder_free = std::mem::take(&mut buffered.points);
-    let mut kept = Buffered { points: placeholder_free, ..buffered };
-    // Emit through `finish`, skipping placeholders of dropped vertices.
-    let mut wrapped = |p: InputPoint| if p.pos.is_finite() { sink(p) } else { Ok(()) };
-    kept.face_normals.clear();
-    kept.finish(&mut report, &mut wrapped)?;
-    report.points -= dropped;
+    buffered.finish(&mut report, sink)?;
     Ok(report)
 }
 
