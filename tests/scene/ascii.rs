@@ -1,6 +1,7 @@
-//! The ASCII PLY reader, which reads in blocks of lines parsed in parallel, against the binary
-//! reader on the same mesh: every row, across block boundaries, blank lines and CRLF ends; and
-//! its errors, which must name the row and line a line-by-line reader would.
+//! The text readers (ASCII PLY and OBJ), which read in blocks of lines parsed in parallel,
+//! against the binary PLY reader on the same mesh: every row, across block boundaries, blank
+//! lines and CRLF ends; and their errors, which must name the row and line a line-by-line reader
+//! would.
 
 use kiosk_import::ply::{self, PlyError, Row};
 use kiosk_import::source::{self, ReadOptions};
@@ -162,4 +163,99 @@ fn extra_lines_after_the_last_element_are_counted_across_blocks() {
     let header = ply::read_header(&mut r).expect("header");
     let warnings = ply::read_body(&mut r, &header, |_, _, _| Ok(())).expect("tolerated");
     assert_eq!(warnings, ["300000 extra line(s) after the last element ignored"]);
+}
+
+/// A mesh of `n` vertices (double coordinates) and `2 n` triangles as OBJ (with comments in Latin-1, `vn`/`vt` lines,
+/// `a/b/c` and negative indices, CRLF ends here and there) and as a binary PLY.
+fn obj_and_ply(n: u32) -> (Vec<u8>, Vec<u8>) {
+    let mut obj =
+        b"# exported by a scanner \xe9t\xe9 2026 (Latin-1)\r\nmtllib statue.mtl\no statue\n".to_vec();
+    let mut ply = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {n}\nproperty double x\nproperty double y\n\
+         property double z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        2 * n
+    )
+    .into_bytes();
+    for i in 0..n {
+        // `{}` of an f64 reads back exactly.
+        let f = f64::from(i);
+        let p = [f * 1.000_123_4e-3, (f * 0.618).sin() * 1.0e4, -f / 7.0];
+        let end = if i % 89 == 0 { "\r\n" } else { "\n" };
+        obj.extend(format!("v {} {} {}{end}vn 0 0 1\nvt 0.5 0.5\n", p[0], p[1], p[2]).bytes());
+        for v in p {
+            ply.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    obj.extend(b"g body\nusemtl marble\n# faces\n");
+    for i in 0..2 * n {
+        let t = [i / 2, (i / 2 + 1) % n, (i / 2 + 2 + i % 2) % n];
+        // Every third face as a/b/c, every fifth with its last index relative to the end.
+        let last = if i % 5 == 0 { format!("{}", t[2] as i64 - n as i64) } else { format!("{}", t[2] + 1) };
+        let line = if i % 3 == 0 {
+            format!("f {0}/{0}/{0} {1}/{1}/{1} {last}\n", t[0] + 1, t[1] + 1)
+        } else {
+            format!("f {} {} {last}\n", t[0] + 1, t[1] + 1)
+        };
+        obj.extend(line.bytes());
+        ply.push(3);
+        for v in t {
+            ply.extend_from_slice(&(v as i32).to_le_bytes());
+        }
+    }
+    (obj, ply)
+}
+
+fn read_obj(bytes: &[u8], opts: &ReadOptions) -> Result<Vec<source::InputPoint>, String> {
+    let mut pts = Vec::new();
+    source::read_obj(&mut BufReader::new(bytes), opts, &mut |p| {
+        pts.push(p);
+        Ok(())
+    })
+    .map_err(|e| e.to_string())?;
+    Ok(pts)
+}
+
+#[test]
+fn obj_points_equal_binary_ply_points_across_blocks() {
+    let (obj, ply) = obj_and_ply(60_000);
+    assert!(obj.len() > 4 << 20, "several blocks ({} bytes)", obj.len());
+    let opts = ReadOptions::default();
+    let from_obj = read_obj(&obj, &opts).expect("obj");
+    let (from_ply, rep) = source::read_ply_bytes(&ply, &opts).expect("ply");
+    assert_eq!((rep.points, rep.faces_used), (60_000, 120_000));
+    assert_eq!(from_obj.len(), from_ply.len());
+    if let Some(i) = (0..from_obj.len()).find(|&i| from_obj[i] != from_ply[i]) {
+        panic!("point {i}: {:?} from OBJ, {:?} from PLY", from_obj[i], from_ply[i]);
+    }
+}
+
+#[test]
+fn obj_errors_name_their_line_in_later_blocks() {
+    let (obj, _) = obj_and_ply(60_000);
+    let text = String::from_utf8_lossy(&obj).into_owned();
+    // Line 3 k + 4 is vertex k + 1 (three header lines, then v, vn, vt per vertex).
+    let line = 3 * 50_000 + 4;
+    let opts = ReadOptions::default();
+    let bad = with_line(&text, line, "v 1 2 three");
+    assert_eq!(
+        read_obj(bad.as_bytes(), &opts).expect_err("bad number"),
+        format!("line {line}: 'three' is not a number")
+    );
+    let bad = with_line(&text, line, "v 1 inf 3");
+    assert_eq!(
+        read_obj(bad.as_bytes(), &opts).expect_err("non-finite"),
+        format!(
+            "v row 50001 (line {line}): non-finite coordinate (1, inf, 3); use --drop-invalid to skip such samples"
+        )
+    );
+    let faces = 3 * 60_000 + 4 + 3;
+    let bad = with_line(&text, faces + 100_000, "f 1 x/2 3");
+    assert_eq!(
+        read_obj(bad.as_bytes(), &opts).expect_err("bad index"),
+        format!("line {}: bad face index 'x/2'", faces + 100_000)
+    );
+    // A dropped vertex keeps its place: the faces after it still find theirs.
+    let bad = with_line(&text, line, "v nan 2 3");
+    let pts = read_obj(bad.as_bytes(), &ReadOptions { drop_invalid: true, ..opts }).expect("dropped");
+    assert_eq!(pts.len(), 59_999);
 }

@@ -4,6 +4,7 @@
 
 pub mod build;
 pub mod estimate;
+mod lines;
 pub mod ply;
 pub mod source;
 pub mod writer;

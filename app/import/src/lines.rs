@@ -1,0 +1,243 @@
+//! Text read in blocks of whole lines: each block is parsed on a thread of its own (in pieces on
+//! the rayon pool) while the reading thread reads (and inflates) the next block and visits the
+//! block before, in order. The ASCII PLY body and OBJ files are read this way; a format says how
+//! a block parses ([`Format`]) and its reader visits the results, so errors come in file order
+//! as a line-by-line reader would give them.
+
+use std::io::BufRead;
+
+/// Bytes read per block (whole lines: a line longer than this grows its block).
+const BLOCK: usize = 1 << 20;
+/// A longer line is an error (binary data in a text file), not a reason to read the whole file.
+pub(crate) const MAX_LINE: usize = 64 << 20;
+/// Lines parsed by one task of the pool.
+pub(crate) const PIECE: usize = 8192;
+
+/// How a format parses a block of whole lines.
+pub(crate) trait Format: Sync {
+    /// Where reading stands between blocks (lines before, the row the next line holds…).
+    type At: Copy + Send;
+    /// What a block parses into; reused from block to block (fresh pages cost more than the
+    /// parse).
+    type Out: Default + Send;
+
+    /// Parses `block` into `out` (cleared first), reading on from `at`; returns where reading
+    /// stands after the block.
+    fn parse(&self, block: &[u8], at: Self::At, out: &mut Self::Out) -> Self::At;
+}
+
+/// Why reading stopped before the end of the input.
+#[derive(Debug)]
+pub(crate) enum Stop {
+    /// The input failed.
+    Io(std::io::Error),
+    /// No line end within [`MAX_LINE`] bytes after the last line read.
+    Overlong,
+}
+
+/// Reads `r` to its end, calling `visit(block, parsed)` for each block in order, and returns
+/// where reading stands after the last. When reading fails, the blocks before are visited first
+/// and `stop` makes the error (given where reading stands).
+pub(crate) fn read<F: Format, E>(
+    r: &mut (impl BufRead + ?Sized),
+    format: &F,
+    mut at: F::At,
+    mut visit: impl FnMut(&[u8], &mut F::Out) -> Result<(), E>,
+    stop: impl Fn(Stop, F::At) -> E,
+) -> Result<F::At, E> {
+    struct Block<O> {
+        bytes: Vec<u8>,
+        out: O,
+    }
+    let mut carry = Vec::new();
+    std::thread::scope(|s| {
+        // Block k is parsed on a thread of its own while block k − 1 is visited and block k + 1
+        // read here.
+        let mut spare = Block { bytes: Vec::new(), out: F::Out::default() };
+        let mut read = next_block(r, &mut carry, std::mem::take(&mut spare.bytes));
+        let mut pending: Option<Block<F::Out>> = None;
+        loop {
+            let parsing = match read {
+                Ok(block) => block.map(|bytes| {
+                    let (from, mut out) = (at, std::mem::take(&mut spare.out));
+                    s.spawn(move || {
+                        let after = format.parse(&bytes, from, &mut out);
+                        (Block { bytes, out }, after)
+                    })
+                }),
+                Err(e) => {
+                    if let Some(mut done) = pending.take() {
+                        visit(&done.bytes, &mut done.out)?;
+                    }
+                    return Err(stop(e, at));
+                }
+            };
+            if let Some(mut done) = pending.take() {
+                visit(&done.bytes, &mut done.out)?;
+                spare = done;
+            }
+            let Some(parsing) = parsing else { return Ok(at) };
+            read = next_block(r, &mut carry, std::mem::take(&mut spare.bytes));
+            let (done, after) = parsing
+                .join()
+                .map_err(|_| stop(Stop::Io(std::io::Error::other("a parser thread panicked")), at))?;
+            at = after;
+            pending = Some(done);
+        }
+    })
+}
+
+/// Reads the next block of whole lines into `buf` (the bytes after its last line end wait in
+/// `carry` for the next block), or `None` at the end of the input.
+fn next_block(
+    r: &mut (impl BufRead + ?Sized),
+    carry: &mut Vec<u8>,
+    mut buf: Vec<u8>,
+) -> Result<Option<Vec<u8>>, Stop> {
+    buf.clear();
+    buf.append(carry);
+    let mut searched = 0;
+    loop {
+        let old = buf.len();
+        let want = BLOCK.max(old);
+        buf.resize(old + want, 0);
+        let got = crate::read_full(r, &mut buf[old..]).map_err(Stop::Io)?;
+        buf.truncate(old + got);
+        let end = got < want;
+        if let Some(last) = memchr::memrchr(b'\n', &buf[searched..]) {
+            if !end {
+                carry.extend_from_slice(&buf[searched + last + 1..]);
+                buf.truncate(searched + last + 1);
+            }
+            // At the end of the input, the bytes after the last line end are the last line.
+            return Ok(Some(buf));
+        }
+        if buf.len() > MAX_LINE {
+            return Err(Stop::Overlong);
+        }
+        if end {
+            return Ok((!buf.is_empty()).then_some(buf));
+        }
+        searched = buf.len();
+    }
+}
+
+/// The lines of a block as (start, end) byte ranges, without their line ends.
+pub(crate) fn lines(block: &[u8]) -> impl Iterator<Item = (usize, usize)> + '_ {
+    let last = (block.last().is_some_and(|&b| b != b'\n')).then_some(block.len());
+    let mut start = 0;
+    memchr::memchr_iter(b'\n', block).chain(last).map(move |end| {
+        let line = (start, end);
+        start = end + 1;
+        line
+    })
+}
+
+/// Whitespace as `str::split_whitespace` sees it, in the ASCII range (tab to carriage return,
+/// space).
+pub(crate) fn is_space(b: u8) -> bool {
+    matches!(b, b' ' | b'\t'..=b'\r')
+}
+
+/// Whether a line holds nothing but whitespace.
+pub(crate) fn is_blank(line: &[u8]) -> bool {
+    line.iter().all(|&b| is_space(b))
+}
+
+/// Whitespace-separated tokens of a line.
+pub(crate) struct Tokens<'a> {
+    rest: &'a [u8],
+}
+
+impl<'a> Tokens<'a> {
+    pub(crate) fn new(line: &'a [u8]) -> Self {
+        Self { rest: line }
+    }
+}
+
+impl<'a> Iterator for Tokens<'a> {
+    type Item = &'a [u8];
+
+    fn next(&mut self) -> Option<&'a [u8]> {
+        let b = self.rest;
+        let mut i = 0;
+        while i < b.len() && is_space(b[i]) {
+            i += 1;
+        }
+        if i == b.len() {
+            self.rest = &[];
+            return None;
+        }
+        let start = i;
+        while i < b.len() && !is_space(b[i]) {
+            i += 1;
+        }
+        self.rest = &b[i..];
+        Some(&b[start..i])
+    }
+}
+
+/// An `f64` as `str::parse` reads it (`nan` and `inf` included).
+pub(crate) fn parse_f64(t: &[u8]) -> Option<f64> {
+    std::str::from_utf8(t).ok()?.parse().ok()
+}
+
+/// An `i64` as `str::parse` reads it (optional sign, decimal digits), without its UTF-8 check
+/// for the short tokens that make up most text bodies.
+pub(crate) fn parse_i64(t: &[u8]) -> Option<i64> {
+    let digits = match t.first()? {
+        b'-' | b'+' => &t[1..],
+        _ => t,
+    };
+    if digits.is_empty() || digits.len() > 18 {
+        return std::str::from_utf8(t).ok()?.parse().ok();
+    }
+    let mut v = 0i64;
+    for &d in digits {
+        let d = d.wrapping_sub(b'0');
+        if d > 9 {
+            return None;
+        }
+        v = v * 10 + i64::from(d);
+    }
+    Some(if t[0] == b'-' { -v } else { v })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn integers_parse_as_str_parse_does() {
+        for t in [
+            "0",
+            "-0",
+            "+7",
+            "-128",
+            "255",
+            "123456789012345678",
+            "9223372036854775807",
+            "-9223372036854775808",
+        ] {
+            assert_eq!(parse_i64(t.as_bytes()), t.parse().ok(), "{t}");
+        }
+        for t in ["", "-", "+", "1.0", "1e3", "12a", "9223372036854775808", " 1", "--1"] {
+            assert_eq!(parse_i64(t.as_bytes()), None, "{t:?}");
+        }
+    }
+
+    #[test]
+    fn tokens_split_on_ascii_whitespace() {
+        let toks: Vec<&[u8]> = Tokens::new(b"  1 2\t3\r\n").collect();
+        assert_eq!(toks, [b"1", b"2", b"3"]);
+        assert_eq!(Tokens::new(b" \t\r").next(), None);
+    }
+
+    #[test]
+    fn lines_of_a_block_with_and_without_a_last_line_end() {
+        let of = |b: &[u8]| lines(b).map(|(s, e)| b[s..e].to_vec()).collect::<Vec<_>>();
+        assert_eq!(of(b"a\nbc\n"), [b"a".to_vec(), b"bc".to_vec()]);
+        assert_eq!(of(b"a\n\nbc"), [b"a".to_vec(), b"".to_vec(), b"bc".to_vec()]);
+        assert!(of(b"").is_empty());
+    }
+}
