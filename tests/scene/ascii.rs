@@ -49,8 +49,11 @@ fn mesh(n: u32) -> (String, Vec<u8>) {
     (ascii, bin)
 }
 
-/// Every row of a body as (element, row, values, lists).
-fn rows(bytes: &[u8]) -> Result<Vec<(usize, u64, Vec<f64>, Vec<Vec<f64>>)>, PlyError> {
+/// A row as (element, row, values, lists).
+type BodyRow = (usize, u64, Vec<f64>, Vec<Vec<f64>>);
+
+/// Every row of a body.
+fn rows(bytes: &[u8]) -> Result<Vec<BodyRow>, PlyError> {
     let mut r = BufReader::new(bytes);
     let header = ply::read_header(&mut r)?;
     let mut out = Vec::new();
