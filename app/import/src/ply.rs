@@ -318,14 +318,10 @@ pub fn read_body(
     header: &Header,
     mut visit: impl FnMut(usize, u64, &Row) -> Result<(), PlyError>,
 ) -> Result<Vec<String>, PlyError> {
-    let mut warnings = Vec::new();
     if header.format == Format::Ascii {
-        let extra = ascii::read_rows(r, header, &mut visit)?;
-        if extra > 0 {
-            warnings.push(format!("{extra} extra line(s) after the last element ignored"));
-        }
-        return Ok(warnings);
+        return ascii::read_rows(r, header, &mut visit);
     }
+    let mut warnings = Vec::new();
     let big = header.format == Format::BinaryBe;
     let mut row = Row::default();
     let mut bytes = Vec::new();

@@ -442,11 +442,13 @@ pub fn read_obj(
         }
         Ok(())
     };
-    crate::lines::read(r, &ObjLines, 0, &mut visit, |stop, at| match stop {
-        Stop::Io(e) => ReadError::Io(e),
-        Stop::Overlong => {
-            unusable(at + 1, format!("longer than {} MiB (binary data?)", crate::lines::MAX_LINE >> 20))
-        }
+    crate::lines::read(r, &ObjLines, 0, &mut visit, |stop, at| {
+        Err(match stop {
+            Stop::Io(e) => ReadError::Io(e),
+            Stop::Overlong => {
+                unusable(at + 1, format!("longer than {} MiB (binary data?)", crate::lines::MAX_LINE >> 20))
+            }
+        })
     })?;
     if report.rows == 0 {
         return Err(ReadError::Unusable("the file has 0 vertices ('v' lines)".into()));

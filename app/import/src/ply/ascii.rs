@@ -100,23 +100,35 @@ impl lines::Format for Body<'_> {
 }
 
 /// Reads the rows of every element of an ASCII body, calling `visit` for each in order. Returns
-/// the number of non-blank lines after the last element.
+/// warnings: non-blank lines after the last element, and input that could not be read after it
+/// (junk after gzip data, say), which a line-by-line reader would have stopped at.
 pub(super) fn read_rows(
     r: &mut (impl BufRead + ?Sized),
     header: &Header,
     visit: &mut impl FnMut(usize, u64, &Row) -> Result<(), PlyError>,
-) -> Result<usize, PlyError> {
+) -> Result<Vec<String>, PlyError> {
     let els = &header.elements;
     let mut start = Cursor { ei: 0, ri: 0, line: header.lines, extra: 0 };
     start.settle(els);
     let mut row = Row::default();
     let mut row_ei = usize::MAX;
+    let mut warnings = Vec::new();
     let end = lines::read(
         r,
         &Body { els },
         start,
         |_, parsed| visit_block(parsed, els, &mut row, &mut row_ei, visit),
-        |stop, at| block_error(stop, els, at),
+        |stop, at| {
+            if let Some(el) = els.get(at.ei) {
+                return Err(block_error(stop, el, at));
+            }
+            let why = match stop {
+                Stop::Io(e) => e.to_string(),
+                Stop::Overlong => format!("a line longer than {} MiB", lines::MAX_LINE >> 20),
+            };
+            warnings.push(format!("input after line {} could not be read ({why}); ignored", at.line));
+            Ok(at)
+        },
     )?;
     if end.ei < els.len() {
         let el = &els[end.ei];
@@ -127,26 +139,23 @@ pub(super) fn read_rows(
             msg: format!("unexpected end of file: {} of {} rows present", end.ri, el.count),
         });
     }
-    Ok(end.extra)
+    if end.extra > 0 {
+        warnings.insert(0, format!("{} extra line(s) after the last element ignored", end.extra));
+    }
+    Ok(warnings)
 }
 
-/// The error of a failed read after the rows before it (`at`: where reading stands).
-fn block_error(e: Stop, els: &[Element], at: Cursor) -> PlyError {
+/// The error of a failed read after the rows before it, in element `el` (`at`: where reading
+/// stands).
+fn block_error(e: Stop, el: &Element, at: Cursor) -> PlyError {
     match e {
         Stop::Io(e) => PlyError::Io(e),
-        Stop::Overlong => {
-            let msg =
-                format!("line longer than {} MiB (binary data in an ASCII body?)", lines::MAX_LINE >> 20);
-            match els.get(at.ei) {
-                Some(el) => {
-                    PlyError::Row { element: el.name.clone(), row: at.ri + 1, line: Some(at.line + 1), msg }
-                }
-                None => PlyError::Io(std::io::Error::new(
-                    std::io::ErrorKind::InvalidData,
-                    format!("line {}: {msg}", at.line + 1),
-                )),
-            }
-        }
+        Stop::Overlong => PlyError::Row {
+            element: el.name.clone(),
+            row: at.ri + 1,
+            line: Some(at.line + 1),
+            msg: format!("line longer than {} MiB (binary data in an ASCII body?)", lines::MAX_LINE >> 20),
+        },
     }
 }
 
