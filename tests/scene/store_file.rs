@@ -115,3 +115,31 @@ fn import_takes_a_spacing_stride_and_refuses_one_out_of_range() {
         assert!(!dir.path().join("bad.kstore").exists());
     }
 }
+
+/// What a curator sees when a scan is broken: the file, then the element, row and line, once
+/// (the error is not repeated as its own cause), and no store.
+#[test]
+fn import_of_a_broken_scan_names_file_row_and_line_once() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let scan = dir.path().join("broken.ply");
+    std::fs::write(
+        &scan,
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+         end_header\n0 0 0\n1 0 0\n0 1 oops\n",
+    )
+    .expect("write");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_kiosk"))
+        .args(["import", "--quiet"])
+        .arg(&scan)
+        .arg("-o")
+        .arg(dir.path().join("broken.kstore"))
+        .env("RUST_BACKTRACE", "0")
+        .output()
+        .expect("run kiosk");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("broken.ply"), "{err}");
+    let what = "element 'vertex' row 3 (line 10): property 'z': 'oops' is not a number";
+    assert_eq!(err.matches(what).count(), 1, "{err}");
+    assert!(!dir.path().join("broken.kstore").exists());
+}

@@ -44,7 +44,7 @@ impl Default for ReadOptions {
 #[derive(Debug, thiserror::Error)]
 pub enum ReadError {
     /// The PLY reader failed.
-    #[error("{0}")]
+    #[error(transparent)]
     Ply(#[from] PlyError),
     /// I/O failure.
     #[error("read error: {0}")]
