@@ -14,14 +14,23 @@ pub use source::{InputPoint, ReadError, ReadOptions, ReadReport};
 
 /// Reads into `buf` until it is full or the input ends; returns the bytes read.
 pub(crate) fn read_full(r: &mut (impl std::io::Read + ?Sized), buf: &mut [u8]) -> std::io::Result<usize> {
+    match fill(r, buf) {
+        (n, None) => Ok(n),
+        (_, Some(e)) => Err(e),
+    }
+}
+
+/// Reads into `buf` until it is full, the input ends or reading fails: the bytes read, and the
+/// failure (the bytes before it are good).
+pub(crate) fn fill(r: &mut (impl std::io::Read + ?Sized), buf: &mut [u8]) -> (usize, Option<std::io::Error>) {
     let mut n = 0;
     while n < buf.len() {
         match r.read(&mut buf[n..]) {
             Ok(0) => break,
             Ok(k) => n += k,
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(e),
+            Err(e) => return (n, Some(e)),
         }
     }
-    Ok(n)
+    (n, None)
 }

@@ -122,7 +122,7 @@ impl Source {
             let old = buf.len();
             let want = BLOCK.max(old);
             buf.resize(old + want, 0);
-            let (got, failed) = fill(r, &mut buf[old..]);
+            let (got, failed) = crate::fill(r, &mut buf[old..]);
             buf.truncate(old + got);
             if let Some(e) = failed {
                 // The whole lines before the failure are read first (a line-by-line reader would
@@ -154,21 +154,6 @@ impl Source {
             searched = buf.len();
         }
     }
-}
-
-/// Reads into `buf` until it is full, the input ends or reading fails: the bytes read, and the
-/// failure.
-fn fill(r: &mut (impl BufRead + ?Sized), buf: &mut [u8]) -> (usize, Option<std::io::Error>) {
-    let mut n = 0;
-    while n < buf.len() {
-        match r.read(&mut buf[n..]) {
-            Ok(0) => break,
-            Ok(k) => n += k,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(e) => return (n, Some(e)),
-        }
-    }
-    (n, None)
 }
 
 /// The lines of a block as (start, end) byte ranges, without their line ends.
