@@ -175,11 +175,25 @@ pub(crate) fn is_space(b: u8) -> bool {
 
 /// Whether a line holds nothing but whitespace (Unicode whitespace too, in UTF-8 text).
 pub(crate) fn is_blank(line: &[u8]) -> bool {
-    if line.is_ascii() {
-        line.iter().all(|&b| is_space(b))
-    } else {
-        std::str::from_utf8(line).is_ok_and(|s| s.trim().is_empty())
+    // Decided at the first byte that is not ASCII whitespace (the first of most lines): any other
+    // ASCII character is not whitespace; a non-ASCII one may be, and the line is checked as text.
+    match line.iter().position(|&b| !is_space(b)) {
+        None => true,
+        Some(i) if line[i].is_ascii() => false,
+        Some(i) => std::str::from_utf8(&line[i..]).is_ok_and(|s| s.trim().is_empty()),
     }
+}
+
+/// Parses `lines` in pieces of [`PIECE`] on the pool, one output per piece (`pieces` is resized
+/// to their number; each output is reused from block to block, and `parse` clears it).
+pub(crate) fn in_pieces<L: Sync, P: Default + Send>(
+    lines: &[L],
+    pieces: &mut Vec<P>,
+    parse: impl Fn(&[L], &mut P) + Sync,
+) {
+    use rayon::prelude::*;
+    pieces.resize_with(lines.len().div_ceil(PIECE), P::default);
+    lines.par_chunks(PIECE).zip(pieces.par_iter_mut()).for_each(|(ls, p)| parse(ls, p));
 }
 
 /// Whitespace-separated tokens of a line: split by hand on ASCII whitespace, or as

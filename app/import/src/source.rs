@@ -130,6 +130,13 @@ struct Buffered {
 }
 
 impl Buffered {
+    /// Keeps the place of a vertex dropped for its non-finite position `pos`, so that face
+    /// indices stay right; it is never passed on, and its triangles give nothing to the others.
+    fn push_dropped(&mut self, pos: DVec3) {
+        debug_assert!(!pos.is_finite());
+        self.points.push(InputPoint { pos, normal: Vec3::ZERO, color: [0; 4], radius: 0.0 });
+    }
+
     /// Takes the triangles (a fan) of a polygon: applied at once when every vertex is read
     /// (`vertices_read`), else in [`Buffered::finish`]. A polygon with fewer than 3 vertices or
     /// an index out of range is an error (a broken mesh).
@@ -292,14 +299,7 @@ pub fn read_ply(
                 if opts.drop_invalid {
                     dropped += 1;
                     if use_faces {
-                        // Kept in place (never passed on), so that face indices stay right.
-                        let pos = DVec3::new(x, y, z);
-                        buffered.points.push(InputPoint {
-                            pos,
-                            normal: Vec3::ZERO,
-                            color: [0; 4],
-                            radius: 0.0,
-                        });
+                        buffered.push_dropped(DVec3::new(x, y, z));
                     }
                     return Ok(());
                 }
@@ -389,13 +389,7 @@ pub fn read_obj(
                         if !(x.is_finite() && y.is_finite() && z.is_finite()) {
                             if opts.drop_invalid {
                                 dropped += 1;
-                                // Kept in place (never passed on), so that face indices stay right.
-                                buffered.points.push(InputPoint {
-                                    pos: DVec3::new(x, y, z),
-                                    normal: Vec3::ZERO,
-                                    color: [0; 4],
-                                    radius: 0.0,
-                                });
+                                buffered.push_dropped(DVec3::new(x, y, z));
                                 continue;
                             }
                             return Err(ReadError::NonFinite {
@@ -498,7 +492,6 @@ impl crate::lines::Format for ObjLines {
     type Out = ObjParsed;
 
     fn parse(&self, block: &[u8], mut line: usize, out: &mut ObjParsed) -> usize {
-        use rayon::prelude::*;
         out.lines.clear();
         for (start, end) in crate::lines::lines(block) {
             line += 1;
@@ -506,9 +499,7 @@ impl crate::lines::Format for ObjLines {
                 out.lines.push((start, end, line));
             }
         }
-        let piece = crate::lines::PIECE;
-        out.pieces.resize_with(out.lines.len().div_ceil(piece), ObjPiece::default);
-        out.lines.par_chunks(piece).zip(out.pieces.par_iter_mut()).for_each(|(lines, p)| {
+        crate::lines::in_pieces(&out.lines, &mut out.pieces, |lines, p| {
             p.stmts.clear();
             p.values.clear();
             p.indices.clear();

@@ -6,8 +6,7 @@
 //! order: a row is visited only if every row before it parsed and was visited.
 
 use super::{Element, Header, PlyError, PropKind, Row, Scalar, short};
-use crate::lines::{self, PIECE, Stop, Tokens};
-use rayon::prelude::*;
+use crate::lines::{self, Stop, Tokens};
 use std::io::BufRead;
 
 /// Where reading stands between blocks.
@@ -90,11 +89,7 @@ impl lines::Format for Body<'_> {
                 cursor.extra += 1;
             }
         }
-        p.pieces.resize_with(p.lines.len().div_ceil(PIECE), Piece::default);
-        p.lines
-            .par_chunks(PIECE)
-            .zip(p.pieces.par_iter_mut())
-            .for_each(|(ls, piece)| parse_piece(block, ls, els, piece));
+        lines::in_pieces(&p.lines, &mut p.pieces, |ls, piece| parse_piece(block, ls, els, piece));
         cursor
     }
 }
