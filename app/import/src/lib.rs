@@ -3,6 +3,7 @@
 //! the store it writes is read by the pure core.
 
 pub mod build;
+pub mod direct;
 pub mod estimate;
 mod lines;
 pub mod ply;

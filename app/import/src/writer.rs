@@ -2,16 +2,17 @@
 //! the index, then the header at offset 0. The file is written under a temporary name and
 //! renamed into place at the end, so an interrupted import never leaves a half store behind.
 
+use crate::direct::SequentialFile;
 use kiosk_core::scene::boxtree::box_count;
 use kiosk_core::scene::store::{self, NONE, NodeRecord, StoreHeader};
 use kiosk_core::{Aabb, Splat};
-use std::fs::File;
-use std::io::{BufWriter, Seek, SeekFrom, Write};
+use std::io::{Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 /// A store being written.
 pub struct StoreWriter {
-    out: BufWriter<File>,
+    /// `None` once finished.
+    out: Option<SequentialFile>,
     tmp_path: PathBuf,
     final_path: PathBuf,
     offset: u64,
@@ -46,10 +47,10 @@ impl StoreWriter {
         let mut tmp = path.as_os_str().to_owned();
         tmp.push(".partial");
         let tmp_path = PathBuf::from(tmp);
-        let mut out = BufWriter::with_capacity(1 << 20, File::create(&tmp_path)?);
+        let mut out = SequentialFile::create(&tmp_path)?;
         out.write_all(&[0u8; StoreHeader::LEN])?;
         Ok(Self {
-            out,
+            out: Some(out),
             tmp_path,
             final_path: path.to_path_buf(),
             offset: StoreHeader::LEN as u64,
@@ -58,6 +59,11 @@ impl StoreWriter {
             leaf_points: 0,
             finished: false,
         })
+    }
+
+    /// The file, until [`StoreWriter::finish`] takes it.
+    fn live(out: &mut Option<SequentialFile>) -> std::io::Result<&mut SequentialFile> {
+        out.as_mut().ok_or_else(|| std::io::Error::other("the store was finished"))
     }
 
     /// Bytes written so far.
@@ -78,10 +84,10 @@ impl StoreWriter {
         debug_assert_eq!(stats.data_crc, store::node_data_crc(splats, boxes));
         let id = self.nodes.len() as u32;
         let points_offset = self.offset;
-        self.out.write_all(bytemuck::cast_slice(splats))?;
+        Self::live(&mut self.out)?.write_all(bytemuck::cast_slice(splats))?;
         self.offset += std::mem::size_of_val(splats) as u64;
         let boxes_offset = self.offset;
-        self.out.write_all(bytemuck::cast_slice(boxes))?;
+        Self::live(&mut self.out)?.write_all(bytemuck::cast_slice(boxes))?;
         self.offset += std::mem::size_of_val(boxes) as u64;
         let mut bbox = boxes.first().copied().unwrap_or(Aabb::EMPTY);
         let (mut rmin, mut rmax, mut rsum) = (f32::INFINITY, 0.0f32, 0.0f64);
@@ -141,11 +147,11 @@ impl StoreWriter {
     /// the root.
     pub fn finish(mut self, origin: [f64; 3], input_points: u64, node_points: u32) -> std::io::Result<u64> {
         let pad = (8 - self.offset % 8) % 8;
-        self.out.write_all(&[0u8; 8][..pad as usize])?;
+        Self::live(&mut self.out)?.write_all(&[0u8; 8][..pad as usize])?;
         self.offset += pad;
         let index_offset = self.offset;
         let index: &[u8] = bytemuck::cast_slice(&self.nodes);
-        self.out.write_all(index)?;
+        Self::live(&mut self.out)?.write_all(index)?;
         self.offset += index.len() as u64;
         let header = StoreHeader {
             magic: store::MAGIC,
@@ -164,10 +170,11 @@ impl StoreWriter {
             header_crc: 0,
         }
         .seal();
-        self.out.seek(SeekFrom::Start(0))?;
-        self.out.write_all(bytemuck::bytes_of(&header))?;
-        self.out.flush()?;
-        self.out.get_ref().sync_all()?;
+        let out = self.out.take().ok_or_else(|| std::io::Error::other("the store was finished"))?;
+        let mut file = out.finish()?;
+        file.seek(SeekFrom::Start(0))?;
+        file.write_all(bytemuck::bytes_of(&header))?;
+        file.sync_all()?;
         std::fs::rename(&self.tmp_path, &self.final_path)?;
         self.finished = true;
         Ok(self.offset)
