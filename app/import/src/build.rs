@@ -353,6 +353,7 @@ impl Builder {
         let params = self.params;
         let mut ctx = Ctx {
             params,
+            scratch: Scratch::default(),
             sink: NodeSink::start(StoreWriter::create(out)?)?,
             done: 0,
             total: self.count,
@@ -377,18 +378,21 @@ impl Builder {
                 ctx.timings.distribute += lap(&mut clock);
                 // A reader thread loads the next region while this one is processed (one region
                 // ahead: memory stays bounded); each cell file is deleted once read.
+                // Region buffers go back to the reader once processed: fresh pages for every
+                // region (≈ 100 MB each) would cost a page fault and a zeroed page per 4 KiB.
                 let root = std::thread::scope(|scope| {
                     let (tx, rx) = std::sync::mpsc::sync_channel(1);
+                    let (back_tx, back_rx) = std::sync::mpsc::channel();
                     scope.spawn(move || {
                         for files in regions {
-                            let recs = read_region(&files);
+                            let recs = read_region(&files, back_rx.try_recv().unwrap_or_default());
                             drop(files);
                             if tx.send(recs).is_err() {
                                 break;
                             }
                         }
                     });
-                    ctx.top(&plan, &rx, origin)
+                    ctx.top(&plan, &Regions { next: rx, back: back_tx }, origin)
                 })?;
                 (root.ok_or_else(|| BuildError::Degenerate("no samples reached any region".into()))?, chunks)
             }
@@ -608,9 +612,10 @@ fn distribute(
     Ok(writer.finish()?)
 }
 
-/// The samples of one region: its cells, in order.
-fn read_region(cells: &[Cell]) -> std::io::Result<Vec<RawRec>> {
-    let mut recs = vec![RawRec::zeroed(); cells.iter().map(|c| c.count as usize).sum()];
+/// The samples of one region: its cells, in order (in `recs`, whose contents are replaced).
+fn read_region(cells: &[Cell], mut recs: Vec<RawRec>) -> std::io::Result<Vec<RawRec>> {
+    recs.clear();
+    recs.resize(cells.iter().map(|c| c.count as usize).sum(), RawRec::zeroed());
     let mut at = 0;
     for c in cells {
         let len = c.count as usize;
@@ -627,8 +632,27 @@ struct Sub {
     spacing: f32,
 }
 
+/// The regions of an out-of-core build as the reader thread delivers them, and the way back for
+/// their buffers.
+struct Regions {
+    next: std::sync::mpsc::Receiver<std::io::Result<Vec<RawRec>>>,
+    back: std::sync::mpsc::Sender<Vec<RawRec>>,
+}
+
+/// The buffers of [`Ctx::region`], kept from one region to the next (their pages stay mapped).
+#[derive(Default)]
+struct Scratch {
+    pts: Vec<(Vec3, Vec3, [u8; 4], f32)>,
+    keyed: Vec<Keyed>,
+    positions: Vec<Vec3>,
+    sorted: Vec<(Vec3, [u8; 4], f32)>,
+    work: Vec<Work>,
+    h2: Vec<f32>,
+}
+
 struct Ctx<'a> {
     params: BuildParams,
+    scratch: Scratch,
     sink: NodeSink,
     done: u64,
     total: u64,
@@ -640,20 +664,15 @@ struct Ctx<'a> {
 impl Ctx<'_> {
     /// Builds the regions under `plan`, in order, from the samples `regions` delivers in the same
     /// order, and joins them.
-    fn top(
-        &mut self,
-        plan: &Plan,
-        regions: &std::sync::mpsc::Receiver<std::io::Result<Vec<RawRec>>>,
-        origin: DVec3,
-    ) -> Result<Option<Sub>, BuildError> {
+    fn top(&mut self, plan: &Plan, regions: &Regions, origin: DVec3) -> Result<Option<Sub>, BuildError> {
         match plan {
             Plan::Region => {
                 let recs =
-                    regions.recv().map_err(|_| std::io::Error::other("the region reader stopped"))??;
-                if recs.is_empty() {
-                    return Ok(None);
-                }
-                self.region(&recs, origin).map(Some)
+                    regions.next.recv().map_err(|_| std::io::Error::other("the region reader stopped"))??;
+                let sub = if recs.is_empty() { None } else { Some(self.region(&recs, origin)?) };
+                // The reader may have finished: then the buffer is simply freed.
+                let _ = regions.back.send(recs);
+                Ok(sub)
             }
             Plan::Split(children) => {
                 let l = self.top(&children[0], regions, origin)?;
@@ -671,12 +690,13 @@ impl Ctx<'_> {
         let mut clock = std::time::Instant::now();
         let n_in = recs.len() as u64;
         self.largest_region = self.largest_region.max(n_in);
-        let mut pts: Vec<(Vec3, Vec3, [u8; 4], f32)> = recs
-            .par_iter()
+        let mut s = std::mem::take(&mut self.scratch);
+        let pts = &mut s.pts;
+        recs.par_iter()
             .map(|r| {
                 ((DVec3::from_array(r.pos) - origin).as_vec3(), Vec3::from_array(r.normal), r.color, r.radius)
             })
-            .collect();
+            .collect_into_vec(pts);
         // Merge duplicates (identical stored positions): average their normals and colours. A
         // group of duplicates becomes its first sample; the others are dropped. Samples keep
         // their input order.
@@ -698,11 +718,14 @@ impl Ctx<'_> {
                 dropped[k] = true;
             }
         }
-        let merged: Vec<(Vec3, Vec3, [u8; 4], f32)> = if dropped.contains(&true) {
-            pts.into_par_iter().zip(dropped).filter(|(_, d)| !*d).map(|(p, _)| p).collect()
-        } else {
-            pts
-        };
+        if dropped.contains(&true) {
+            let mut k = 0;
+            pts.retain(|_| {
+                k += 1;
+                !dropped[k - 1]
+            });
+        }
+        let merged = &*pts;
         self.timings.merge += lap(&mut clock);
         if merged.len() < 2 {
             return Err(BuildError::Degenerate(format!(
@@ -712,32 +735,32 @@ impl Ctx<'_> {
         // One spatial order serves everything below: the splits of the node kd-tree at the top,
         // the implicit box hierarchy of each node under it. Estimation searches the whole region
         // in this order, and the subtree is cut from it without moving a sample again.
-        let mut keyed: Vec<Keyed> =
-            merged.par_iter().enumerate().map(|(i, p)| Keyed { pos: p.0, idx: i as u32 }).collect();
-        hierarchy_sort(&mut keyed, self.params.node_points);
-        let positions: Vec<Vec3> = keyed.iter().map(|k| k.pos).collect();
+        let keyed = &mut s.keyed;
+        merged.par_iter().enumerate().map(|(i, p)| Keyed { pos: p.0, idx: i as u32 }).collect_into_vec(keyed);
+        hierarchy_sort(keyed, self.params.node_points);
+        let positions = &mut s.positions;
+        keyed.par_iter().map(|k| k.pos).collect_into_vec(positions);
         // The rest of each sample follows its position (one gather).
-        let sorted: Vec<(Vec3, [u8; 4], f32)> = keyed
+        let sorted = &mut s.sorted;
+        keyed
             .par_iter()
             .map(|k| {
                 let (_, nrm, color, min_radius) = merged[k.idx as usize];
                 (nrm, color, min_radius)
             })
-            .collect();
-        drop(keyed);
-        drop(merged);
+            .collect_into_vec(sorted);
         self.timings.order += lap(&mut clock);
-        let boxes = boxtree::build_boxes(&positions);
+        let boxes = boxtree::build_boxes(positions);
         let need_normal = |k: usize| sorted[k].0 == Vec3::ZERO;
         let est =
-            estimate::estimate(&positions, &boxes, self.params.knn, self.params.spacing_stride, &need_normal)
+            estimate::estimate(positions, &boxes, self.params.knn, self.params.spacing_stride, &need_normal)
                 .ok_or_else(|| BuildError::Degenerate("fewer than 2 distinct points".into()))?;
         drop(boxes);
         self.timings.estimate += lap(&mut clock);
         let radius_factor = self.params.radius_factor;
-        let (mut work, spacing2): (Vec<Work>, Vec<f32>) = positions
+        positions
             .par_iter()
-            .zip(&sorted)
+            .zip(&*sorted)
             .zip(&est)
             .map(|((&pos, &(nrm, color, min_radius)), &Estimate { normal, spacing })| {
                 let n = if nrm == Vec3::ZERO { normal } else { nrm };
@@ -746,10 +769,11 @@ impl Ctx<'_> {
                 let radius = (radius_factor * h).max(min_radius);
                 (Work { pos, normal: n, radius, color }, h * h)
             })
-            .unzip();
-        let mut h2 = spacing2;
-        let r = self.split(&mut work, &mut h2);
+            .unzip_into_vecs(&mut s.work, &mut s.h2);
+        drop(est);
+        let r = self.split(&mut s.work, &mut s.h2);
         self.timings.nodes += lap(&mut clock);
+        self.scratch = s;
         r
     }
 
