@@ -250,14 +250,18 @@ impl<'a, T: HasPosition> BoxTree<'a, T> {
             return;
         }
         let depth = depth_for(self.items.len());
-        self.knn_rec(q, 0, 0, self.items.len(), depth, max_depth, best, tag);
+        let d0 = self.boxes[0].distance_squared(q);
+        self.knn_rec(q, 0, d0, 0, self.items.len(), depth, max_depth, best, tag);
     }
 
+    /// Searches box `i` (at squared distance `d2` from `q`: each box's distance is computed once,
+    /// by its parent, which needs it to order its children).
     #[expect(clippy::too_many_arguments, reason = "recursion state of a hot loop, kept flat")]
     fn knn_rec<P: Copy>(
         &self,
         q: Vec3,
         i: usize,
+        d2: f32,
         lo: usize,
         hi: usize,
         depth_left: u32,
@@ -265,7 +269,7 @@ impl<'a, T: HasPosition> BoxTree<'a, T> {
         best: &mut KBest<P>,
         tag: &impl Fn(u32) -> P,
     ) {
-        if self.boxes[i].distance_squared(q) >= best.bound() {
+        if d2 >= best.bound() {
             return;
         }
         if depth_left == 0 {
@@ -283,11 +287,11 @@ impl<'a, T: HasPosition> BoxTree<'a, T> {
         let dl = self.boxes[l].distance_squared(q);
         let dr = self.boxes[r].distance_squared(q);
         if dl <= dr {
-            self.knn_rec(q, l, lo, mid, depth_left - 1, max_depth - 1, best, tag);
-            self.knn_rec(q, r, mid, hi, depth_left - 1, max_depth - 1, best, tag);
+            self.knn_rec(q, l, dl, lo, mid, depth_left - 1, max_depth - 1, best, tag);
+            self.knn_rec(q, r, dr, mid, hi, depth_left - 1, max_depth - 1, best, tag);
         } else {
-            self.knn_rec(q, r, mid, hi, depth_left - 1, max_depth - 1, best, tag);
-            self.knn_rec(q, l, lo, mid, depth_left - 1, max_depth - 1, best, tag);
+            self.knn_rec(q, r, dr, mid, hi, depth_left - 1, max_depth - 1, best, tag);
+            self.knn_rec(q, l, dl, lo, mid, depth_left - 1, max_depth - 1, best, tag);
         }
     }
 
