@@ -1097,17 +1097,14 @@ fn simplify_pass(pts: &[Work], target: usize, rule: MergeRule) -> Option<Vec<Wor
         partner[i as usize] = j;
         partner[j as usize] = i;
     }
-    Some(
-        pts.iter()
-            .zip(&partner)
-            .enumerate()
-            .filter_map(|(i, (p, &j))| match j {
-                u32::MAX => Some(*p),
-                j if j as usize > i => Some(merge(p, &pts[j as usize])),
-                _ => None,
-            })
-            .collect(),
-    )
+    // Each pair leaves one sample: the size is known, the vector never grows.
+    let mut next = Vec::with_capacity(pts.len() - edges.len());
+    next.extend(pts.iter().zip(&partner).enumerate().filter_map(|(i, (p, &j))| match j {
+        u32::MAX => Some(*p),
+        j if j as usize > i => Some(merge(p, &pts[j as usize])),
+        _ => None,
+    }));
+    Some(next)
 }
 
 /// The pairs of one leaf (fewer than [`boxtree::LEAF_POINTS`] samples) that greedy matching takes,
