@@ -101,20 +101,17 @@ impl SequentialFile {
         Ok(())
     }
 
-    /// Writes everything and returns an ordinary handle to the file, positioned at its end (for
-    /// rewriting a header, syncing).
-    pub fn finish(mut self) -> io::Result<File> {
+    /// Writes everything buffered and returns an ordinary handle to the file, positioned at its
+    /// end (for rewriting a header, syncing). Writes after this go on buffered.
+    pub fn finish(&mut self) -> io::Result<&mut File> {
         let aligned = if self.direct { self.filled / ALIGN * ALIGN } else { self.filled };
         self.write_out(aligned)?;
-        if self.filled > 0 {
-            self.reopen_buffered()?;
-            let rest = self.filled;
-            self.write_out(rest)?;
-        }
         if self.direct {
             self.reopen_buffered()?;
         }
-        Ok(self.file)
+        let rest = self.filled;
+        self.write_out(rest)?;
+        Ok(&mut self.file)
     }
 }
 
@@ -173,7 +170,7 @@ mod tests {
             expected.extend_from_slice(&chunk);
         }
         let was_direct = f.is_direct();
-        let mut file = f.finish().expect("finish");
+        let file = f.finish().expect("finish");
         assert_eq!(file.stream_position().expect("position"), expected.len() as u64);
         file.seek(SeekFrom::Start(2)).expect("seek");
         file.write_all(b"header").expect("rewrite");

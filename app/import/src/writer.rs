@@ -11,8 +11,7 @@ use std::path::{Path, PathBuf};
 
 /// A store being written.
 pub struct StoreWriter {
-    /// `None` once finished.
-    out: Option<SequentialFile>,
+    out: SequentialFile,
     tmp_path: PathBuf,
     final_path: PathBuf,
     offset: u64,
@@ -50,7 +49,7 @@ impl StoreWriter {
         let mut out = SequentialFile::create(&tmp_path)?;
         out.write_all(&[0u8; StoreHeader::LEN])?;
         Ok(Self {
-            out: Some(out),
+            out,
             tmp_path,
             final_path: path.to_path_buf(),
             offset: StoreHeader::LEN as u64,
@@ -59,11 +58,6 @@ impl StoreWriter {
             leaf_points: 0,
             finished: false,
         })
-    }
-
-    /// The file, until [`StoreWriter::finish`] takes it.
-    fn live(out: &mut Option<SequentialFile>) -> std::io::Result<&mut SequentialFile> {
-        out.as_mut().ok_or_else(|| std::io::Error::other("the store was finished"))
     }
 
     /// Bytes written so far.
@@ -84,10 +78,10 @@ impl StoreWriter {
         debug_assert_eq!(stats.data_crc, store::node_data_crc(splats, boxes));
         let id = self.nodes.len() as u32;
         let points_offset = self.offset;
-        Self::live(&mut self.out)?.write_all(bytemuck::cast_slice(splats))?;
+        self.out.write_all(bytemuck::cast_slice(splats))?;
         self.offset += std::mem::size_of_val(splats) as u64;
         let boxes_offset = self.offset;
-        Self::live(&mut self.out)?.write_all(bytemuck::cast_slice(boxes))?;
+        self.out.write_all(bytemuck::cast_slice(boxes))?;
         self.offset += std::mem::size_of_val(boxes) as u64;
         let mut bbox = boxes.first().copied().unwrap_or(Aabb::EMPTY);
         let (mut rmin, mut rmax, mut rsum) = (f32::INFINITY, 0.0f32, 0.0f64);
@@ -147,11 +141,11 @@ impl StoreWriter {
     /// the root.
     pub fn finish(mut self, origin: [f64; 3], input_points: u64, node_points: u32) -> std::io::Result<u64> {
         let pad = (8 - self.offset % 8) % 8;
-        Self::live(&mut self.out)?.write_all(&[0u8; 8][..pad as usize])?;
+        self.out.write_all(&[0u8; 8][..pad as usize])?;
         self.offset += pad;
         let index_offset = self.offset;
         let index: &[u8] = bytemuck::cast_slice(&self.nodes);
-        Self::live(&mut self.out)?.write_all(index)?;
+        self.out.write_all(index)?;
         self.offset += index.len() as u64;
         let header = StoreHeader {
             magic: store::MAGIC,
@@ -170,8 +164,7 @@ impl StoreWriter {
             header_crc: 0,
         }
         .seal();
-        let out = self.out.take().ok_or_else(|| std::io::Error::other("the store was finished"))?;
-        let mut file = out.finish()?;
+        let file = self.out.finish()?;
         file.seek(SeekFrom::Start(0))?;
         file.write_all(bytemuck::bytes_of(&header))?;
         file.sync_all()?;
