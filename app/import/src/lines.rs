@@ -53,6 +53,11 @@ pub(crate) fn read<F: Format, E>(
         bytes: Vec<u8>,
         out: O,
     }
+    /// A block being parsed on a thread of its own, or parsed already (on the calling thread).
+    enum Parsing<H, P> {
+        Thread(H),
+        Done(P),
+    }
     let inline = rayon::current_thread_index().is_some();
     let mut source = Source { carry: Vec::new(), failed: None };
     std::thread::scope(|s| {
@@ -69,7 +74,7 @@ pub(crate) fn read<F: Format, E>(
                         let after = format.parse(&bytes, from, &mut out);
                         (Block { bytes, out }, after)
                     };
-                    if inline { Err(job()) } else { Ok(s.spawn(job)) }
+                    if inline { Parsing::Done(job()) } else { Parsing::Thread(s.spawn(job)) }
                 }),
                 Err(e) => {
                     if let Some(mut done) = pending.take() {
@@ -85,11 +90,11 @@ pub(crate) fn read<F: Format, E>(
             let Some(parsing) = parsing else { return Ok(at) };
             read = source.next_block(r, std::mem::take(&mut spare.bytes));
             let (done, after) = match parsing {
-                Ok(thread) => match thread.join() {
+                Parsing::Thread(thread) => match thread.join() {
                     Ok(parsed) => parsed,
                     Err(_) => return stop(Stop::Io(std::io::Error::other("a parser thread panicked")), at),
                 },
-                Err(parsed) => parsed,
+                Parsing::Done(parsed) => parsed,
             };
             at = after;
             pending = Some(done);
