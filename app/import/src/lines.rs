@@ -246,9 +246,11 @@ impl<'a> Iterator for Tokens<'a> {
     }
 }
 
-/// An `f64` as `str::parse` reads it (`nan` and `inf` included).
+/// An `f64` as `str::parse` reads it (`nan` and `inf` included), by `fast-float2` straight from
+/// the bytes (no UTF-8 check; the same correctly rounded value), or by `str::parse` for a token
+/// it refuses, so that exactly the tokens `str::parse` takes are taken.
 pub(crate) fn parse_f64(t: &[u8]) -> Option<f64> {
-    std::str::from_utf8(t).ok()?.parse().ok()
+    fast_float2::parse(t).ok().or_else(|| std::str::from_utf8(t).ok()?.parse().ok())
 }
 
 /// An `i64` as `str::parse` reads it (optional sign, decimal digits), without its UTF-8 check
@@ -292,6 +294,72 @@ mod tests {
         }
         for t in ["", "-", "+", "1.0", "1e3", "12a", "9223372036854775808", " 1", "--1"] {
             assert_eq!(parse_i64(t.as_bytes()), None, "{t:?}");
+        }
+    }
+
+    #[test]
+    fn floats_parse_as_str_parse_does() {
+        let same = |t: &str| {
+            let want: Option<f64> = t.parse().ok();
+            let got = parse_f64(t.as_bytes());
+            assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits), "{t:?}");
+        };
+        for t in [
+            "0",
+            "-0",
+            "+1.5",
+            "1.",
+            ".5",
+            "1e5",
+            "1E-5",
+            "1e+5",
+            "-0.0378297",
+            "3.4028235e38",
+            "1e400",
+            "-1e400",
+            "1e-400",
+            "4.9e-324",
+            "2.2250738585072011e-308",
+            "9007199254740993",
+            "0.1000000000000000055511151231257827",
+            "123456789012345678901234567890",
+            "00012",
+            "nan",
+            "NaN",
+            "-nan",
+            "+nan",
+            "inf",
+            "-inf",
+            "+infinity",
+            "Infinity",
+            "INF",
+            "infin",
+            "1e",
+            "e5",
+            ".",
+            "-",
+            "+",
+            "",
+            "1.2.3",
+            "0x10",
+            "1_000",
+            "1,5",
+            " 1",
+            "1 ",
+            "1.5f",
+            "--1",
+            "١",
+        ] {
+            same(t);
+        }
+        let mut rng = rand_pcg::Pcg64::new(7, 11);
+        for _ in 0..20_000 {
+            use rand::Rng;
+            let v = f64::from_bits(rng.random());
+            let short = f64::from(v as f32);
+            for t in [format!("{v}"), format!("{v:e}"), format!("{short}"), format!("{:.6}", short)] {
+                same(&t);
+            }
         }
     }
 
