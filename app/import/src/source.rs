@@ -123,7 +123,7 @@ struct Buffered {
     /// indices stay right; placeholders are never passed on).
     points: Vec<InputPoint>,
     /// Per vertex, once a triangle is applied: the sum of its triangles' area-weighted normals,
-    /// and the largest of their circumradii.
+    /// and the largest of their circumradii, squared.
     faces: Vec<(DVec3, f64)>,
     /// Triangles waiting for the vertices (OBJ, or PLY files whose faces come first).
     tris: Vec<[u32; 3]>,
@@ -174,16 +174,16 @@ impl Buffered {
         let nrm = (b - a).cross(c - a);
         // Every point of a triangle is within its circumradius of a vertex, so discs of that
         // radius at the vertices leave no hole (capped by the longest edge for slivers, whose
-        // circumradius explodes).
-        let (ab, bc, ca) = ((b - a).length(), (c - b).length(), (a - c).length());
+        // circumradius explodes). Squared, so that a vertex takes one square root in all.
+        let (ab, bc, ca) = ((b - a).length_squared(), (c - b).length_squared(), (a - c).length_squared());
         let longest = ab.max(bc).max(ca);
-        let area2 = nrm.length();
-        let circum = if area2 > 0.0 { ab * bc * ca / (2.0 * area2) } else { longest };
-        let r = circum.min(longest);
+        let area2 = nrm.length_squared();
+        let circum = if area2 > 0.0 { ab * bc * ca / (4.0 * area2) } else { longest };
+        let r2 = circum.min(longest);
         for i in t {
             let f = &mut self.faces[i as usize];
             f.0 += nrm;
-            f.1 = f.1.max(r);
+            f.1 = f.1.max(r2);
         }
     }
 
@@ -204,11 +204,11 @@ impl Buffered {
             if !p.pos.is_finite() {
                 continue;
             }
-            if let Some(&(nrm, r)) = self.faces.get(i) {
+            if let Some(&(nrm, r2)) = self.faces.get(i) {
                 if p.normal == Vec3::ZERO {
                     p.normal = nrm.try_normalize().map_or(Vec3::ZERO, |v| v.as_vec3());
                 }
-                p.radius = r as f32;
+                p.radius = r2.sqrt() as f32;
             }
             sink(p).map_err(ReadError::Sink)?;
             report.points += 1;
@@ -289,6 +289,10 @@ pub fn read_ply(
         ));
     }
     let mut buffered = Buffered::default();
+    if use_faces {
+        // Every vertex is kept until the faces are applied (the limit bounds their number).
+        buffered.points.reserve_exact(usize::try_from(v.count).unwrap_or(0));
+    }
     let mut dropped = 0u64;
     let mut sink_err = None;
     let body_warnings = ply::read_body(r, &header, |ei, ri, row| {
