@@ -1015,7 +1015,7 @@ const AXIS_SAMPLE: usize = 16_384;
 const MERGE_REACH: f32 = 3.0;
 
 /// Which pairs a simplification pass may collapse.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct MergeRule {
     /// Cosine of the largest angle between the normals (`None`: any normals).
     normal_cos: Option<f32>,
@@ -1118,6 +1118,8 @@ fn leaf_pairs<T>(leaf: &[Work], rule: MergeRule, mut pair: impl FnMut(u64) -> T)
     const N: usize = boxtree::LEAF_POINTS;
     let m = leaf.len().min(N);
     let mut key = [[u64::MAX; N]; N];
+    // best[i]: the shortest candidate pair of sample i among the samples still free.
+    let mut best = [u64::MAX; N];
     for i in 0..m {
         for j in i + 1..m {
             let d2 = (leaf[i].pos - leaf[j].pos).length_squared();
@@ -1126,6 +1128,8 @@ fn leaf_pairs<T>(leaf: &[Work], rule: MergeRule, mut pair: impl FnMut(u64) -> T)
                 let k = u64::from(d2.to_bits()) << 32 | (i as u64) << 8 | j as u64;
                 key[i][j] = k;
                 key[j][i] = k;
+                best[i] = best[i].min(k);
+                best[j] = best[j].min(k);
             }
         }
     }
@@ -1134,21 +1138,19 @@ fn leaf_pairs<T>(leaf: &[Work], rule: MergeRule, mut pair: impl FnMut(u64) -> T)
     let mut free: [usize; N] = std::array::from_fn(|i| i);
     let mut nf = m;
     loop {
-        let mut best = [u64::MAX; N];
-        for &i in &free[..nf] {
-            best[i] = free[..nf].iter().fold(u64::MAX, |b, &j| b.min(key[i][j]));
-        }
         let mut taken = [false; N];
+        let mut any = false;
         for &i in &free[..nf] {
             let k = best[i];
             let (a, b) = ((k >> 8) as u8 as usize, k as u8 as usize);
             if k != u64::MAX && a == i && best[b] == k {
                 taken[a] = true;
                 taken[b] = true;
+                any = true;
                 out.push(pair(k));
             }
         }
-        if !taken.contains(&true) {
+        if !any {
             break;
         }
         // A sample with no candidate left stays unmatched.
@@ -1163,6 +1165,16 @@ fn leaf_pairs<T>(leaf: &[Work], rule: MergeRule, mut pair: impl FnMut(u64) -> T)
         }
         if nf < 2 {
             break;
+        }
+        // Only a sample whose shortest pair lost its other sample has a new shortest pair: the
+        // others' is still among the free ones, and nothing shorter came.
+        for f in 0..nf {
+            let i = free[f];
+            let k = best[i];
+            let other = if (k >> 8) as u8 as usize == i { k as u8 as usize } else { (k >> 8) as u8 as usize };
+            if taken[other] {
+                best[i] = free[..nf].iter().fold(u64::MAX, |b, &j| b.min(key[i][j]));
+            }
         }
     }
     out
@@ -1186,6 +1198,70 @@ fn merge(a: &Work, b: &Work) -> Work {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn leaf_pairs_are_the_greedy_matching_shortest_first() {
+        // The plain greedy matching: every allowed pair sorted by key, each taken when both of
+        // its samples are still free.
+        fn greedy(leaf: &[Work], rule: MergeRule) -> Vec<u64> {
+            let mut keys = Vec::new();
+            for i in 0..leaf.len() {
+                for j in i + 1..leaf.len() {
+                    let d2 = (leaf[i].pos - leaf[j].pos).length_squared();
+                    let r = leaf[i].radius.max(leaf[j].radius);
+                    if rule.reach.is_none_or(|f| d2 <= (f * r).powi(2))
+                        && rule.normal_cos.is_none_or(|c| leaf[i].normal.dot(leaf[j].normal) >= c)
+                    {
+                        keys.push(u64::from(d2.to_bits()) << 32 | (i as u64) << 8 | j as u64);
+                    }
+                }
+            }
+            keys.sort_unstable();
+            let mut used = [false; boxtree::LEAF_POINTS];
+            let mut out = Vec::new();
+            for k in keys {
+                let (i, j) = ((k >> 8) as u8 as usize, k as u8 as usize);
+                if !used[i] && !used[j] {
+                    used[i] = true;
+                    used[j] = true;
+                    out.push(k);
+                }
+            }
+            out.sort_unstable();
+            out
+        }
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
+        let rules = [
+            MergeRule { normal_cos: Some(0.5), reach: Some(MERGE_REACH) },
+            MergeRule { normal_cos: Some(0.5), reach: None },
+            MergeRule { normal_cos: None, reach: None },
+        ];
+        let mut pairs = 0;
+        for round in 0..3000 {
+            let n = 2 + round % (boxtree::LEAF_POINTS - 1);
+            // Coarse coordinates: some lengths tie, and ties are broken by the indices.
+            let leaf: Vec<Work> = (0..n)
+                .map(|_| Work {
+                    pos: Vec3::new(
+                        rng.random_range(0..8) as f32,
+                        rng.random_range(0..8) as f32,
+                        rng.random_range(0..3) as f32,
+                    ),
+                    normal: Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), 1.0)
+                        .normalize(),
+                    radius: rng.random_range(0.2..2.0),
+                    color: [0; 4],
+                })
+                .collect();
+            for rule in rules {
+                let mut got = leaf_pairs(&leaf, rule, |k| k);
+                got.sort_unstable();
+                assert_eq!(got, greedy(&leaf, rule), "round {round}, {rule:?}");
+                pairs += got.len();
+            }
+        }
+        assert!(pairs > 10_000, "the leaves had pairs to take: {pairs}");
+    }
 
     #[test]
     fn settings_out_of_range_are_an_error_that_names_them() {
