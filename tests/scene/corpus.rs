@@ -321,6 +321,30 @@ fn truncated_binary_body_names_the_row() {
 }
 
 #[test]
+fn an_element_without_properties_is_read_as_rows_of_nothing() {
+    // Rows of zero bytes (binary) or empty lines (ASCII): nothing to decode, never a panic or an
+    // endless loop, whatever count the header claims.
+    for count in [3u64, u64::MAX] {
+        let header = |format: &str| {
+            format!(
+                "ply\nformat {format} 1.0\nelement vertex 2\nproperty float x\nproperty float y\n\
+                 property float z\nelement nothing {count}\nend_header\n"
+            )
+        };
+        let mut bin = header("binary_little_endian").into_bytes();
+        for v in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0] {
+            bin.extend(v.to_le_bytes());
+        }
+        let (pts, _) = source::read_ply_bytes(&bin, &ReadOptions::default()).expect("binary loads");
+        assert_eq!(pts.len(), 2, "count {count}");
+    }
+    let ascii = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n\
+                 property float z\nelement nothing 2\nend_header\n0 0 0\n1 0 0\n\n\n";
+    let (pts, _) = source::read_ply_bytes(ascii.as_bytes(), &ReadOptions::default()).expect("ascii loads");
+    assert_eq!(pts.len(), 2);
+}
+
+#[test]
 fn gzip_is_detected_by_content() {
     // The dragon decimations are gzip-wrapped ASCII PLY.
     let (pts, _) =

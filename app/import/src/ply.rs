@@ -311,10 +311,11 @@ pub struct Row {
     pub lists: Vec<Vec<f64>>,
 }
 
-/// Reads every element of the body, calling `visit(element index, row index, row)` for each row.
-/// Returns warnings about tolerated oddities.
+/// Reads every element of the body, calling `visit(element index, row index, row)` for each row
+/// (an element without properties has nothing to read or visit). Returns warnings about
+/// tolerated oddities.
 pub fn read_body(
-    r: &mut (impl BufRead + ?Sized),
+    r: &mut (impl BufRead + Send + ?Sized),
     header: &Header,
     mut visit: impl FnMut(usize, u64, &Row) -> Result<(), PlyError>,
 ) -> Result<Vec<String>, PlyError> {
@@ -367,9 +368,10 @@ fn read_exact(r: &mut (impl BufRead + ?Sized), n: usize, buf: &mut Vec<u8>) -> R
 }
 
 /// Reads the rows of a binary element whose rows all have `size` bytes (scalars only), many rows
-/// per read.
+/// per read. A thread of its own reads and decodes the batches of rows ahead of the visits (the
+/// points of a large scan: reading and decoding take as long as the visits).
 fn read_fixed_rows(
-    r: &mut (impl BufRead + ?Sized),
+    r: &mut (impl BufRead + Send + ?Sized),
     el: &Element,
     ei: usize,
     size: usize,
@@ -377,38 +379,78 @@ fn read_fixed_rows(
     row: &mut Row,
     visit: &mut impl FnMut(usize, u64, &Row) -> Result<(), PlyError>,
 ) -> Result<(), PlyError> {
-    let batch = ((1 << 16) / size.max(1)).max(1) as u64;
-    let mut buf = vec![0u8; batch as usize * size];
-    let mut done = 0u64;
-    while done < el.count {
-        let rows = batch.min(el.count - done) as usize;
-        let want = &mut buf[..rows * size];
-        let got = crate::read_full(r, want)?;
-        for (i, bytes) in want[..got].chunks_exact(size).enumerate() {
-            let mut at = 0;
-            for (v, p) in row.values.iter_mut().zip(&el.props) {
-                if let PropKind::Scalar(t) = p.kind {
-                    *v = t.decode(&bytes[at..], big);
-                    at += t.size();
-                }
-            }
-            visit(ei, done + i as u64, row)?;
-        }
-        if got < want.len() {
-            return Err(PlyError::Row {
-                element: el.name.clone(),
-                row: done + (got / size) as u64 + 1,
-                line: None,
-                msg: format!(
-                    "unexpected end of file: {} of {} rows present",
-                    done + (got / size) as u64,
-                    el.count
-                ),
-            });
-        }
-        done += rows as u64;
+    /// The decoded values of a batch of whole rows, and whether the input ended within it.
+    struct Decoded {
+        values: Vec<f64>,
+        rows: usize,
+        ended: bool,
     }
-    Ok(())
+    if size == 0 {
+        // No properties: nothing to read and nothing to visit, however many rows it claims.
+        return Ok(());
+    }
+    let batch = ((1 << 20) / size).max(1) as u64;
+    std::thread::scope(|s| {
+        let (decoded_tx, decoded) = std::sync::mpsc::channel::<std::io::Result<Decoded>>();
+        // Value buffers go round (at most three in use: decoded, queued, visited).
+        let (spare, spare_rx) = std::sync::mpsc::channel::<Vec<f64>>();
+        for _ in 0..3 {
+            spare.send(Vec::new()).expect("the decoder holds its end");
+        }
+        s.spawn(move || {
+            let mut buf = vec![0u8; batch as usize * size];
+            let mut done = 0u64;
+            // It stops at the end of the element or of the input, on a failure, or when the
+            // visits stop (their side hangs up).
+            while done < el.count {
+                let Ok(mut values) = spare_rx.recv() else { return };
+                let rows = batch.min(el.count - done) as usize;
+                let want = &mut buf[..rows * size];
+                let got = match crate::read_full(r, want) {
+                    Ok(got) => got,
+                    Err(e) => {
+                        let _ = decoded_tx.send(Err(e));
+                        return;
+                    }
+                };
+                values.clear();
+                for bytes in want[..got].chunks_exact(size) {
+                    let mut at = 0;
+                    for p in &el.props {
+                        if let PropKind::Scalar(t) = p.kind {
+                            values.push(t.decode(&bytes[at..], big));
+                            at += t.size();
+                        }
+                    }
+                }
+                let ended = got < want.len();
+                if decoded_tx.send(Ok(Decoded { values, rows: got / size, ended })).is_err() || ended {
+                    return;
+                }
+                done += rows as u64;
+            }
+        });
+        let mut done = 0u64;
+        for batch in decoded {
+            let batch = batch?;
+            for (i, values) in batch.values.chunks_exact(row.values.len()).enumerate() {
+                row.values.copy_from_slice(values);
+                visit(ei, done + i as u64, row)?;
+            }
+            done += batch.rows as u64;
+            if batch.ended {
+                return Err(PlyError::Row {
+                    element: el.name.clone(),
+                    row: done + 1,
+                    line: None,
+                    msg: format!("unexpected end of file: {done} of {} rows present", el.count),
+                });
+            }
+            // The decoder may be done already: the buffer is dropped.
+            let _ = spare.send(batch.values);
+        }
+        Ok(())
+    })
 }
 
 fn read_binary_row(

@@ -94,7 +94,7 @@ pub struct ReadReport {
 pub type Sink<'a> = dyn FnMut(InputPoint) -> Result<(), String> + 'a;
 
 /// Opens a file, unwrapping gzip when its first bytes say so.
-pub fn open(path: &Path) -> std::io::Result<Box<dyn BufRead>> {
+pub fn open(path: &Path) -> std::io::Result<Box<dyn BufRead + Send>> {
     let mut f = BufReader::with_capacity(1 << 20, std::fs::File::open(path)?);
     let gz = f.fill_buf()?.starts_with(&[0x1f, 0x8b]);
     Ok(if gz {
@@ -230,7 +230,7 @@ fn color_channel(v: f64, ty: ply::Scalar) -> u8 {
 
 /// Reads a PLY stream.
 pub fn read_ply(
-    r: &mut dyn BufRead,
+    r: &mut (dyn BufRead + Send),
     opts: &ReadOptions,
     sink: &mut Sink<'_>,
 ) -> Result<ReadReport, ReadError> {

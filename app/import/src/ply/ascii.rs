@@ -23,9 +23,11 @@ struct Cursor {
 }
 
 impl Cursor {
-    /// Moves past elements whose rows are all read (and elements without rows).
+    /// Moves past elements whose rows are all read, elements without rows, and elements without
+    /// properties (whose rows would be empty lines, which are skipped as blank: there is nothing
+    /// to read, however many rows the header claims).
     fn settle(&mut self, els: &[Element]) {
-        while self.ei < els.len() && self.ri == els[self.ei].count {
+        while self.ei < els.len() && (self.ri == els[self.ei].count || els[self.ei].props.is_empty()) {
             self.ei += 1;
             self.ri = 0;
         }
