@@ -3,5 +3,6 @@
 mod ascii;
 mod corpus;
 mod extremes;
+mod mutations;
 mod oracles;
 mod store_file;

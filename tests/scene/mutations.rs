@@ -1,0 +1,115 @@
+//! Broken files made from good ones: bytes flipped, inserted, deleted, lines cut short, header
+//! numbers blown up. A reader must never panic, hang or take the machine's memory on any of
+//! them: it loads what the file still says, or fails with an error that says something.
+
+use crate::common::data;
+use kiosk_import::source::{self, ReadOptions};
+use rand::{Rng, SeedableRng};
+use std::io::BufReader;
+
+type Rng64 = rand_pcg::Pcg64;
+
+/// Small files of every encoding and shape: ASCII and binary both ways, point clouds and meshes,
+/// lists with several count types, colours, OBJ.
+const SEEDS: &[&str] = &[
+    "ply-corpus/ok/assimp/cube_binary.ply",
+    "ply-corpus/ok/assimp/float-color.ply",
+    "ply-corpus/ok/pdal/mesh.ply",
+    "ply-corpus/ok/pdal/simple_binary.ply",
+    "ply-corpus/ok/happly/platonic_shelf_ascii.ply",
+    "ply-corpus/ok/happly/platonic_shelf_big_endian.ply",
+    "ply-corpus/ok/ply-rs/all_atomic_types_ok_ascii.ply",
+    "ply-corpus/ok/ply-rs/house_2_ok_little_endian.ply",
+    "ply-corpus/ok/trimesh/points_ascii_with_lists.ply",
+    "scans/stanford-bunny/bun_zipper_res4.ply",
+    "scans/demosthenes/demosthenes-low-res.obj",
+];
+
+/// One random change to `b`.
+fn mutate(b: &mut Vec<u8>, rng: &mut Rng64) {
+    let at = rng.random_range(0..b.len().max(1));
+    match rng.random_range(0..7) {
+        // A byte flipped, set to a delimiter, or to a digit.
+        0 => {
+            if let Some(x) = b.get_mut(at) {
+                *x ^= 1 << rng.random_range(0..8);
+            }
+        }
+        1 => {
+            if let Some(x) = b.get_mut(at) {
+                *x = [b' ', b'\n', b'\r', b'\t', b'-', b'.', b'e', 0, 0xff][rng.random_range(0..9)];
+            }
+        }
+        2 => {
+            if let Some(x) = b.get_mut(at) {
+                *x = b'0' + rng.random_range(0..10);
+            }
+        }
+        // Bytes inserted or deleted.
+        3 => {
+            let n = rng.random_range(1..8);
+            let ins: Vec<u8> = (0..n).map(|_| rng.random()).collect();
+            b.splice(at.min(b.len())..at.min(b.len()), ins);
+        }
+        4 => {
+            let end = (at + rng.random_range(1..64)).min(b.len());
+            b.drain(at.min(end)..end);
+        }
+        // Cut short.
+        5 => b.truncate(at),
+        // A number blown up: digits inserted after a digit (a count, an index, a coordinate).
+        _ => {
+            if let Some(i) = (at..b.len()).find(|&i| b[i].is_ascii_digit()) {
+                let digits =
+                    ["9", "99999", "4294967295", "18446744073709551615", "00"][rng.random_range(0..5)];
+                b.splice(i + 1..i + 1, digits.bytes());
+            }
+        }
+    }
+}
+
+#[test]
+fn broken_files_never_panic_and_errors_say_something() {
+    let opts = ReadOptions::default();
+    let mut rng = Rng64::seed_from_u64(20_261_202);
+    let (mut loaded, mut failed) = (0, 0);
+    for seed in SEEDS {
+        let good = std::fs::read(data(seed)).expect("seed file");
+        let obj = seed.ends_with(".obj");
+        for round in 0..300 {
+            let mut b = good.clone();
+            for _ in 0..rng.random_range(1..4) {
+                mutate(&mut b, &mut rng);
+            }
+            let read = std::panic::catch_unwind(|| {
+                let mut pts = 0u64;
+                let mut sink = |_| {
+                    pts += 1;
+                    Ok(())
+                };
+                let mut r = BufReader::new(&b[..]);
+                let got = if obj {
+                    source::read_obj(&mut r, &opts, &mut sink)
+                } else {
+                    source::read_ply(&mut r, &opts, &mut sink)
+                };
+                got.map(|rep| (rep.points, pts)).map_err(|e| e.to_string())
+            });
+            match read {
+                Ok(Ok((reported, sunk))) => {
+                    assert_eq!(reported, sunk, "{seed} round {round}: the report counts what was passed on");
+                    loaded += 1;
+                }
+                Ok(Err(msg)) => {
+                    assert!(msg.len() > 10, "{seed} round {round}: an error that says little: {msg:?}");
+                    failed += 1;
+                }
+                Err(_) => {
+                    panic!("{seed} round {round}: the reader panicked on {:?}", String::from_utf8_lossy(&b))
+                }
+            }
+        }
+    }
+    // Both outcomes happen: the mutations reach the parsers, not only the header checks.
+    assert!(loaded > 300 && failed > 300, "loaded {loaded}, failed {failed}");
+}
