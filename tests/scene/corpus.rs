@@ -322,26 +322,59 @@ fn truncated_binary_body_names_the_row() {
 
 #[test]
 fn an_element_without_properties_is_read_as_rows_of_nothing() {
-    // Rows of zero bytes (binary) or empty lines (ASCII): nothing to decode, never a panic or an
-    // endless loop, whatever count the header claims.
+    // Rows of zero bytes (binary) or empty lines (ASCII): nothing to decode or to consume, never
+    // a panic or an endless loop, whatever count the header claims, before or after the vertices.
+    let vertex = "element vertex 2\nproperty float x\nproperty float y\nproperty float z\n";
     for count in [3u64, u64::MAX] {
-        let header = |format: &str| {
-            format!(
-                "ply\nformat {format} 1.0\nelement vertex 2\nproperty float x\nproperty float y\n\
-                 property float z\nelement nothing {count}\nend_header\n"
-            )
-        };
-        let mut bin = header("binary_little_endian").into_bytes();
-        for v in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0] {
-            bin.extend(v.to_le_bytes());
+        let nothing = format!("element nothing {count}\n");
+        for (before, after) in [(nothing.as_str(), ""), ("", nothing.as_str())] {
+            let header =
+                |format: &str| format!("ply\nformat {format} 1.0\n{before}{vertex}{after}end_header\n");
+            let mut bin = header("binary_little_endian").into_bytes();
+            for v in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0] {
+                bin.extend(v.to_le_bytes());
+            }
+            let ascii = header("ascii") + "0 0 0\n1 0 0\n\n\n";
+            for (name, bytes) in [("binary", bin.as_slice()), ("ascii", ascii.as_bytes())] {
+                let (pts, rep) = source::read_ply_bytes(bytes, &ReadOptions::default())
+                    .unwrap_or_else(|e| panic!("{name}, count {count}, before {before:?}: {e}"));
+                assert_eq!(pts.len(), 2, "{name}, count {count}, before {before:?}");
+                assert_eq!(pts[1].pos.x, 1.0, "{name}: the vertices are read from the right bytes");
+                assert!(rep.warnings.is_empty(), "{name}: {:?}", rep.warnings);
+            }
         }
-        let (pts, _) = source::read_ply_bytes(&bin, &ReadOptions::default()).expect("binary loads");
-        assert_eq!(pts.len(), 2, "count {count}");
     }
-    let ascii = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n\
-                 property float z\nelement nothing 2\nend_header\n0 0 0\n1 0 0\n\n\n";
-    let (pts, _) = source::read_ply_bytes(ascii.as_bytes(), &ReadOptions::default()).expect("ascii loads");
-    assert_eq!(pts.len(), 2);
+}
+
+#[test]
+fn large_binary_bodies_name_the_row_of_their_first_problem() {
+    // 200 000 rows of 12 bytes: several batches of the reader that decodes ahead.
+    let body = |n: usize, bad: Option<usize>| {
+        let mut ply = b"ply\nformat binary_little_endian 1.0\nelement vertex 200000\nproperty float x\n\
+            property float y\nproperty float z\nend_header\n"
+            .to_vec();
+        for i in 0..n {
+            let x = if Some(i) == bad { f32::NAN } else { i as f32 };
+            for v in [x, 1.0, 2.0] {
+                ply.extend(v.to_le_bytes());
+            }
+        }
+        ply
+    };
+    let mut cut = body(150_000, None);
+    cut.extend([0u8; 5]);
+    let err = source::read_ply_bytes(&cut, &ReadOptions::default()).expect_err("truncated").to_string();
+    assert!(
+        err.contains("element 'vertex' row 150001: unexpected end of file: 150000 of 200000 rows present"),
+        "{err}"
+    );
+    let nan = body(200_000, Some(119_999));
+    let err = source::read_ply_bytes(&nan, &ReadOptions::default()).expect_err("non-finite").to_string();
+    assert!(err.contains("element 'vertex' row 120000: non-finite coordinate"), "{err}");
+    let (pts, rep) = source::read_ply_bytes(&nan, &ReadOptions { drop_invalid: true, ..Default::default() })
+        .expect("dropped");
+    assert_eq!((pts.len(), rep.rows), (199_999, 200_000));
+    assert_eq!(pts[150_000].pos.x, 150_001.0, "rows after the dropped one keep their order");
 }
 
 #[test]

@@ -336,12 +336,7 @@ pub fn read_body(
         }
         for ri in 0..el.count {
             read_binary_row(r, el, big, &mut row, &mut bytes).map_err(|e| match e {
-                BinErr::Eof => PlyError::Row {
-                    element: el.name.clone(),
-                    row: ri + 1,
-                    line: None,
-                    msg: format!("unexpected end of file: {} of {} rows present", ri, el.count),
-                },
+                BinErr::Eof => unexpected_end(el, ri),
                 BinErr::Io(e) => PlyError::Io(e),
             })?;
             visit(ei, ri, &row)?;
@@ -367,9 +362,72 @@ fn read_exact(r: &mut (impl BufRead + ?Sized), n: usize, buf: &mut Vec<u8>) -> R
         .map_err(|e| if e.kind() == std::io::ErrorKind::UnexpectedEof { BinErr::Eof } else { BinErr::Io(e) })
 }
 
-/// Reads the rows of a binary element whose rows all have `size` bytes (scalars only), many rows
-/// per read. A thread of its own reads and decodes the batches of rows ahead of the visits (the
-/// points of a large scan: reading and decoding take as long as the visits).
+/// The error for an element whose rows end after `present` of them.
+pub(crate) fn unexpected_end(el: &Element, present: u64) -> PlyError {
+    PlyError::Row {
+        element: el.name.clone(),
+        row: present + 1,
+        line: None,
+        msg: format!("unexpected end of file: {present} of {} rows present", el.count),
+    }
+}
+
+/// The decoded values of a batch of whole rows, and whether the input ended within it.
+struct Decoded {
+    values: Vec<f64>,
+    rows: usize,
+    ended: bool,
+}
+
+/// The rows of a binary element whose rows all have `size` (> 0) bytes, read and decoded a
+/// batch at a time.
+struct Batches<'a, R: ?Sized> {
+    r: &'a mut R,
+    el: &'a Element,
+    size: usize,
+    big: bool,
+    /// Rows per batch.
+    batch: u64,
+    buf: Vec<u8>,
+    /// Rows read so far (all of them once the input ended or failed).
+    done: u64,
+}
+
+impl<R: BufRead + ?Sized> Batches<'_, R> {
+    /// The next batch, decoded into `values`; `None` after the last one, a short one or a failure.
+    fn next(&mut self, mut values: Vec<f64>) -> Option<std::io::Result<Decoded>> {
+        if self.done >= self.el.count {
+            return None;
+        }
+        let rows = self.batch.min(self.el.count - self.done) as usize;
+        self.buf.resize(rows * self.size, 0);
+        let got = match crate::read_full(self.r, &mut self.buf) {
+            Ok(got) => got,
+            Err(e) => {
+                self.done = self.el.count;
+                return Some(Err(e));
+            }
+        };
+        values.clear();
+        for bytes in self.buf[..got].chunks_exact(self.size) {
+            let mut at = 0;
+            for p in &self.el.props {
+                if let PropKind::Scalar(t) = p.kind {
+                    values.push(t.decode(&bytes[at..], self.big));
+                    at += t.size();
+                }
+            }
+        }
+        let ended = got < self.buf.len();
+        self.done = if ended { self.el.count } else { self.done + rows as u64 };
+        Some(Ok(Decoded { values, rows: got / self.size, ended }))
+    }
+}
+
+/// Reads the rows of a binary element whose rows all have `size` bytes (scalars only), 1 MiB of
+/// rows per read. An element of more than one batch (the points of a large scan) is read and
+/// decoded on a thread of its own, a batch ahead of the visits: reading and decoding take as
+/// long as the visits.
 fn read_fixed_rows(
     r: &mut (impl BufRead + Send + ?Sized),
     el: &Element,
@@ -379,78 +437,62 @@ fn read_fixed_rows(
     row: &mut Row,
     visit: &mut impl FnMut(usize, u64, &Row) -> Result<(), PlyError>,
 ) -> Result<(), PlyError> {
-    /// The decoded values of a batch of whole rows, and whether the input ended within it.
-    struct Decoded {
-        values: Vec<f64>,
-        rows: usize,
-        ended: bool,
-    }
     if size == 0 {
         // No properties: nothing to read and nothing to visit, however many rows it claims.
         return Ok(());
     }
     let batch = ((1 << 20) / size).max(1) as u64;
-    std::thread::scope(|s| {
-        let (decoded_tx, decoded) = std::sync::mpsc::channel::<std::io::Result<Decoded>>();
-        // Value buffers go round (at most three in use: decoded, queued, visited).
-        let (spare, spare_rx) = std::sync::mpsc::channel::<Vec<f64>>();
-        for _ in 0..3 {
-            spare.send(Vec::new()).expect("the decoder holds its end");
+    let mut batches = Batches { r, el, size, big, batch, buf: Vec::new(), done: 0 };
+    // Visits the rows of a batch; hands its buffer back.
+    let mut visited = 0u64;
+    let mut take = |d: Decoded| -> Result<Vec<f64>, PlyError> {
+        for (i, values) in d.values.chunks_exact(row.values.len()).enumerate() {
+            row.values.copy_from_slice(values);
+            visit(ei, visited + i as u64, row)?;
         }
-        s.spawn(move || {
-            let mut buf = vec![0u8; batch as usize * size];
-            let mut done = 0u64;
-            // It stops at the end of the element or of the input, on a failure, or when the
-            // visits stop (their side hangs up).
-            while done < el.count {
-                let Ok(mut values) = spare_rx.recv() else { return };
-                let rows = batch.min(el.count - done) as usize;
-                let want = &mut buf[..rows * size];
-                let got = match crate::read_full(r, want) {
-                    Ok(got) => got,
-                    Err(e) => {
-                        let _ = decoded_tx.send(Err(e));
+        visited += d.rows as u64;
+        if d.ended {
+            return Err(unexpected_end(el, visited));
+        }
+        Ok(d.values)
+    };
+    if el.count > batch {
+        let threaded = std::thread::scope(|s| {
+            let (decoded_tx, decoded) = std::sync::mpsc::channel::<std::io::Result<Decoded>>();
+            // Value buffers go round: at most three in use (decoded, queued, visited).
+            let (spare, spare_rx) = std::sync::mpsc::channel::<Vec<f64>>();
+            for _ in 0..3 {
+                spare.send(Vec::new()).expect("its receiver is here");
+            }
+            let source = &mut batches;
+            // The decoder stops after the last batch, a short one or a failure, or when the
+            // visits stop (their side hangs up: it may finish the read it is in first).
+            let decoder = move || {
+                while let Ok(values) = spare_rx.recv() {
+                    let Some(d) = source.next(values) else { return };
+                    let last = !matches!(d, Ok(Decoded { ended: false, .. }));
+                    if decoded_tx.send(d).is_err() || last {
                         return;
                     }
-                };
-                values.clear();
-                for bytes in want[..got].chunks_exact(size) {
-                    let mut at = 0;
-                    for p in &el.props {
-                        if let PropKind::Scalar(t) = p.kind {
-                            values.push(t.decode(&bytes[at..], big));
-                            at += t.size();
-                        }
-                    }
                 }
-                let ended = got < want.len();
-                if decoded_tx.send(Ok(Decoded { values, rows: got / size, ended })).is_err() || ended {
-                    return;
-                }
-                done += rows as u64;
-            }
+            };
+            // Without a thread (the system refuses one), the rows are read below instead.
+            std::thread::Builder::new().name("ply rows".into()).spawn_scoped(s, decoder).ok()?;
+            Some(decoded.into_iter().try_for_each(|d| {
+                // The decoder may be done already: the buffer is then dropped.
+                let _ = spare.send(take(d?)?);
+                Ok(())
+            }))
         });
-        let mut done = 0u64;
-        for batch in decoded {
-            let batch = batch?;
-            for (i, values) in batch.values.chunks_exact(row.values.len()).enumerate() {
-                row.values.copy_from_slice(values);
-                visit(ei, done + i as u64, row)?;
-            }
-            done += batch.rows as u64;
-            if batch.ended {
-                return Err(PlyError::Row {
-                    element: el.name.clone(),
-                    row: done + 1,
-                    line: None,
-                    msg: format!("unexpected end of file: {done} of {} rows present", el.count),
-                });
-            }
-            // The decoder may be done already: the buffer is dropped.
-            let _ = spare.send(batch.values);
+        if let Some(result) = threaded {
+            return result;
         }
-        Ok(())
-    })
+    }
+    let mut values = Vec::new();
+    while let Some(d) = batches.next(values) {
+        values = take(d?)?;
+    }
+    Ok(())
 }
 
 fn read_binary_row(

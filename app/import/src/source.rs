@@ -177,8 +177,10 @@ impl Buffered {
         // circumradius explodes). Squared, so that a vertex takes one square root in all.
         let (ab, bc, ca) = ((b - a).length_squared(), (c - b).length_squared(), (a - c).length_squared());
         let longest = ab.max(bc).max(ca);
-        let area2 = nrm.length_squared();
-        let circum = if area2 > 0.0 { ab * bc * ca / (4.0 * area2) } else { longest };
+        // |n|² = 4 × area²; the circumradius² is ab² bc² ca² / (4 |n|²), taken in an order that
+        // keeps the products within the range of |n|² itself.
+        let n2 = nrm.length_squared();
+        let circum = if n2 > 0.0 { ab * (bc / n2) * ca * 0.25 } else { longest };
         let r2 = circum.min(longest);
         for i in t {
             let f = &mut self.faces[i as usize];
@@ -290,8 +292,9 @@ pub fn read_ply(
     }
     let mut buffered = Buffered::default();
     if use_faces {
-        // Every vertex is kept until the faces are applied (the limit bounds their number).
-        buffered.points.reserve_exact(usize::try_from(v.count).unwrap_or(0));
+        // Every vertex is kept until the faces are applied: room for them at once, up to 4 Mi
+        // (a broken header's count takes no more; the buffer grows past that as rows come).
+        let _ = buffered.points.try_reserve_exact(usize::try_from(v.count.min(1 << 22)).unwrap_or(0));
     }
     let mut dropped = 0u64;
     let mut sink_err = None;

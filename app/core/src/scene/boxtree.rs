@@ -227,7 +227,7 @@ impl<P: Copy> KBest<P> {
 }
 
 /// Asks the processor to bring every cache line of `data` into the caches: a hint, with no effect
-/// on results.
+/// on results (and nothing at all on processors other than x86-64).
 #[inline]
 fn prefetch<T>(data: &[T]) {
     #[cfg(target_arch = "x86_64")]
@@ -314,8 +314,9 @@ impl<'a, T: HasPosition> BoxTree<'a, T> {
         // caches): ask now for what the nearer child's search reads two steps down — its four
         // grandchildren's boxes, or the points of its two leaves — so that the misses overlap.
         let (near, near_lo, near_hi) = if dl <= dr { (l, lo, mid) } else { (r, mid, hi) };
+        // (A hint must never fail: boxes that are not there are not asked for.)
         if depth_left >= 3 && max_depth >= 3 {
-            prefetch(&self.boxes[4 * near + 3..4 * near + 7]);
+            prefetch(self.boxes.get(4 * near + 3..4 * near + 7).unwrap_or_default());
         } else if depth_left == 2 && max_depth >= 2 {
             prefetch(&self.items[near_lo..near_hi]);
         }

@@ -128,13 +128,7 @@ pub(super) fn read_rows(
         },
     )?;
     if end.ei < els.len() {
-        let el = &els[end.ei];
-        return Err(PlyError::Row {
-            element: el.name.clone(),
-            row: end.ri + 1,
-            line: None,
-            msg: format!("unexpected end of file: {} of {} rows present", end.ri, el.count),
-        });
+        return Err(super::unexpected_end(&els[end.ei], end.ri));
     }
     if end.extra > 0 {
         warnings.insert(0, format!("{} extra line(s) after the last element ignored", end.extra));
