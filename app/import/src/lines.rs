@@ -246,6 +246,53 @@ impl<'a> Iterator for Tokens<'a> {
     }
 }
 
+impl<'a> Tokens<'a> {
+    /// The next token as an integer when it is a plain one (optional sign, at most 18 digits),
+    /// read in the same pass that finds its end; any other token as `Err(token)`, for the caller
+    /// to parse or refuse as it would from [`Iterator::next`]. `None` at the end of the line.
+    #[inline]
+    pub(crate) fn next_int(&mut self) -> Option<Result<i64, &'a [u8]>> {
+        let b = match self {
+            Self::Ascii(rest) => *rest,
+            Self::Unicode(_) => return self.next().map(|t| parse_i64(t).ok_or(t)),
+        };
+        let mut i = 0;
+        while i < b.len() && is_space(b[i]) {
+            i += 1;
+        }
+        if i == b.len() {
+            *self = Self::Ascii(&[]);
+            return None;
+        }
+        let start = i;
+        let negative = b[i] == b'-';
+        if matches!(b[i], b'-' | b'+') {
+            i += 1;
+        }
+        let digits = i;
+        let mut v = 0i64;
+        // At most 18 digits (no overflow); a longer run of digits is refused below.
+        while i < b.len() && i - digits < 18 {
+            let d = b[i].wrapping_sub(b'0');
+            if d > 9 {
+                break;
+            }
+            v = v * 10 + i64::from(d);
+            i += 1;
+        }
+        if i == digits || (i < b.len() && !is_space(b[i])) {
+            // Not a plain integer: the whole token.
+            while i < b.len() && !is_space(b[i]) {
+                i += 1;
+            }
+            *self = Self::Ascii(&b[i..]);
+            return Some(Err(&b[start..i]));
+        }
+        *self = Self::Ascii(&b[i..]);
+        Some(Ok(if negative { -v } else { v }))
+    }
+}
+
 /// An `f64` as `str::parse` reads it (`nan` and `inf` included), by `fast-float2` straight from
 /// the bytes (no UTF-8 check; the same correctly rounded value), or by `str::parse` for a token
 /// it refuses, so that exactly the tokens `str::parse` takes are taken.
@@ -359,6 +406,36 @@ mod tests {
             let short = f64::from(v as f32);
             for t in [format!("{v}"), format!("{v:e}"), format!("{short}"), format!("{:.6}", short)] {
                 same(&t);
+            }
+        }
+    }
+
+    #[test]
+    fn integer_tokens_read_in_one_pass_match_the_tokens_and_their_parse() {
+        for line in [
+            "3 12 345 6789",
+            "  -7\t+8 -0 0 ",
+            "1.5 2e3 x -- - + 12a 7",
+            "123456789012345678 1234567890123456789 00000000000000000000042 -99999999999999999999",
+            "1\u{a0}2 3",
+            "",
+            "   ",
+        ] {
+            let want: Vec<Result<i64, &[u8]>> =
+                Tokens::new(line.as_bytes()).map(|t| parse_i64(t).ok_or(t)).collect();
+            let mut tok = Tokens::new(line.as_bytes());
+            let got: Vec<Result<i64, &[u8]>> = std::iter::from_fn(|| tok.next_int()).collect();
+            // The same tokens, and the same integers wherever the integer is taken.
+            assert_eq!(got.len(), want.len(), "{line:?}");
+            for (g, w) in got.iter().zip(&want) {
+                match (g, w) {
+                    (Ok(a), Ok(b)) => assert_eq!(a, b, "{line:?}"),
+                    (Err(t), Ok(b)) => {
+                        assert_eq!(parse_i64(t), Some(*b), "{line:?}: the caller parses {t:?}")
+                    }
+                    (Err(a), Err(b)) => assert_eq!(a, b, "{line:?}"),
+                    (Ok(a), Err(b)) => panic!("{line:?}: {a} taken from {b:?}"),
+                }
             }
         }
     }

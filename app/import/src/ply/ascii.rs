@@ -218,15 +218,15 @@ fn parse_line(line: &[u8], el: &Element, out: &mut Piece) -> Result<(), String> 
     let mut tok = Tokens::new(line);
     for p in &el.props {
         match p.kind {
-            PropKind::Scalar(t) => out.values.push(parse_value(tok.next(), t, &p.name)?),
+            PropKind::Scalar(t) => out.values.push(parse_value(&mut tok, t, &p.name)?),
             PropKind::List { count, item } => {
                 out.values.push(f64::NAN);
-                let n = parse_value(tok.next(), count, &p.name)?;
+                let n = parse_value(&mut tok, count, &p.name)?;
                 if n < 0.0 {
                     return Err(format!("property '{}': negative list length {n}", p.name));
                 }
                 for _ in 0..n as u64 {
-                    let v = parse_value(tok.next(), item, &p.name)?;
+                    let v = parse_value(&mut tok, item, &p.name)?;
                     out.items.push(v);
                 }
                 out.list_ends.push(out.items.len());
@@ -239,21 +239,26 @@ fn parse_line(line: &[u8], el: &Element, out: &mut Piece) -> Result<(), String> 
     Ok(())
 }
 
-/// The value of property `name` of type `ty` from its token.
+/// The value of property `name` of type `ty` from the next token (an integer read in one pass
+/// where it is a plain one).
 #[inline]
-fn parse_value(t: Option<&[u8]>, ty: Scalar, name: &str) -> Result<f64, String> {
-    let Some(t) = t else { return Err(format!("missing value for property '{name}'")) };
+fn parse_value(tok: &mut Tokens<'_>, ty: Scalar, name: &str) -> Result<f64, String> {
+    let missing = || format!("missing value for property '{name}'");
     let v = match ty.range() {
-        Some((lo, hi)) => match lines::parse_i64(t) {
-            Some(v) if (lo..=hi).contains(&(v as f64)) => v as f64,
-            Some(v) => return Err(format!("property '{name}': {v} out of range for {}", ty.name())),
-            None => return Err(not_a(t, "an integer", name)),
+        Some((lo, hi)) => match tok.next_int().ok_or_else(missing)?.or_else(|t| lines::parse_i64(t).ok_or(t))
+        {
+            Ok(v) if (lo..=hi).contains(&(v as f64)) => v as f64,
+            Ok(v) => return Err(format!("property '{name}': {v} out of range for {}", ty.name())),
+            Err(t) => return Err(not_a(t, "an integer", name)),
         },
-        None => match lines::parse_f64(t) {
-            Some(v) if ty == Scalar::F32 => f64::from(v as f32),
-            Some(v) => v,
-            None => return Err(not_a(t, "a number", name)),
-        },
+        None => {
+            let t = tok.next().ok_or_else(missing)?;
+            match lines::parse_f64(t) {
+                Some(v) if ty == Scalar::F32 => f64::from(v as f32),
+                Some(v) => v,
+                None => return Err(not_a(t, "a number", name)),
+            }
+        }
     };
     Ok(v)
 }
