@@ -229,21 +229,25 @@ impl<'a> Iterator for Tokens<'a> {
             Self::Ascii(rest) => *rest,
             Self::Unicode(words) => return words.next().map(str::as_bytes),
         };
-        let mut i = 0;
-        while i < b.len() && is_space(b[i]) {
-            i += 1;
-        }
-        if i == b.len() {
+        let start = skip(b, 0, true);
+        if start == b.len() {
             *self = Self::Ascii(&[]);
             return None;
         }
-        let start = i;
-        while i < b.len() && !is_space(b[i]) {
-            i += 1;
-        }
-        *self = Self::Ascii(&b[i..]);
-        Some(&b[start..i])
+        let end = skip(b, start, false);
+        *self = Self::Ascii(&b[end..]);
+        Some(&b[start..end])
     }
+}
+
+/// The first index at or after `i` whose byte is not ASCII whitespace (`space`), or is (not
+/// `space`); the length if there is none.
+#[inline]
+fn skip(b: &[u8], mut i: usize, space: bool) -> usize {
+    while i < b.len() && is_space(b[i]) == space {
+        i += 1;
+    }
+    i
 }
 
 impl<'a> Tokens<'a> {
@@ -256,15 +260,12 @@ impl<'a> Tokens<'a> {
             Self::Ascii(rest) => *rest,
             Self::Unicode(_) => return self.next().map(|t| parse_i64(t).ok_or(t)),
         };
-        let mut i = 0;
-        while i < b.len() && is_space(b[i]) {
-            i += 1;
-        }
-        if i == b.len() {
+        let start = skip(b, 0, true);
+        if start == b.len() {
             *self = Self::Ascii(&[]);
             return None;
         }
-        let start = i;
+        let mut i = start;
         let negative = b[i] == b'-';
         if matches!(b[i], b'-' | b'+') {
             i += 1;
@@ -282,11 +283,9 @@ impl<'a> Tokens<'a> {
         }
         if i == digits || (i < b.len() && !is_space(b[i])) {
             // Not a plain integer: the whole token.
-            while i < b.len() && !is_space(b[i]) {
-                i += 1;
-            }
-            *self = Self::Ascii(&b[i..]);
-            return Some(Err(&b[start..i]));
+            let end = skip(b, i, false);
+            *self = Self::Ascii(&b[end..]);
+            return Some(Err(&b[start..end]));
         }
         *self = Self::Ascii(&b[i..]);
         Some(Ok(if negative { -v } else { v }))
