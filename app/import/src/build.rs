@@ -1064,7 +1064,7 @@ fn simplify_pass(pts: &[Work], target: usize, rule: MergeRule) -> Option<Vec<Wor
             .par_iter()
             .flat_map_iter(|&(lo, hi)| {
                 leaf_pairs(&pts[lo..hi], rule, |key| {
-                    let (i, j) = ((key >> 8) as u8 as usize, key as u8 as usize);
+                    let (i, j) = pair_ends(key);
                     ((key & !0xffff_ffff) | (lo + i) as u64, (lo + j) as u32)
                 })
             })
@@ -1142,7 +1142,7 @@ fn leaf_pairs<T>(leaf: &[Work], rule: MergeRule, mut pair: impl FnMut(u64) -> T)
         let mut any = false;
         for &i in &free[..nf] {
             let k = best[i];
-            let (a, b) = ((k >> 8) as u8 as usize, k as u8 as usize);
+            let (a, b) = pair_ends(k);
             if k != u64::MAX && a == i && best[b] == k {
                 taken[a] = true;
                 taken[b] = true;
@@ -1170,14 +1170,19 @@ fn leaf_pairs<T>(leaf: &[Work], rule: MergeRule, mut pair: impl FnMut(u64) -> T)
         // others' is still among the free ones, and nothing shorter came.
         for f in 0..nf {
             let i = free[f];
-            let k = best[i];
-            let other = if (k >> 8) as u8 as usize == i { k as u8 as usize } else { (k >> 8) as u8 as usize };
-            if taken[other] {
+            let (a, b) = pair_ends(best[i]);
+            if taken[if a == i { b } else { a }] {
                 best[i] = free[..nf].iter().fold(u64::MAX, |b, &j| b.min(key[i][j]));
             }
         }
     }
     out
+}
+
+/// The two samples (i < j) of a [`leaf_pairs`] key.
+#[inline]
+fn pair_ends(key: u64) -> (usize, usize) {
+    ((key >> 8) as u8 as usize, key as u8 as usize)
 }
 
 fn merge(a: &Work, b: &Work) -> Work {
@@ -1220,7 +1225,7 @@ mod tests {
             let mut used = [false; boxtree::LEAF_POINTS];
             let mut out = Vec::new();
             for k in keys {
-                let (i, j) = ((k >> 8) as u8 as usize, k as u8 as usize);
+                let (i, j) = pair_ends(k);
                 if !used[i] && !used[j] {
                     used[i] = true;
                     used[j] = true;

@@ -251,9 +251,9 @@ fn skip(b: &[u8], mut i: usize, space: bool) -> usize {
 }
 
 impl<'a> Tokens<'a> {
-    /// The next token as an integer when it is a plain one (optional sign, at most 18 digits),
-    /// read in the same pass that finds its end; any other token as `Err(token)`, for the caller
-    /// to parse or refuse as it would from [`Iterator::next`]. `None` at the end of the line.
+    /// The next token as the integer [`parse_i64`] reads from it (a plain one, optional sign and
+    /// at most 18 digits, read in the same pass that finds its end), or as `Err(token)` when it
+    /// is not an integer. `None` at the end of the line.
     #[inline]
     pub(crate) fn next_int(&mut self) -> Option<Result<i64, &'a [u8]>> {
         let b = match self {
@@ -282,10 +282,11 @@ impl<'a> Tokens<'a> {
             i += 1;
         }
         if i == digits || (i < b.len() && !is_space(b[i])) {
-            // Not a plain integer: the whole token.
+            // Not a plain integer: the whole token, parsed the long way.
             let end = skip(b, i, false);
             *self = Self::Ascii(&b[end..]);
-            return Some(Err(&b[start..end]));
+            let t = &b[start..end];
+            return Some(parse_i64(t).ok_or(t));
         }
         *self = Self::Ascii(&b[i..]);
         Some(Ok(if negative { -v } else { v }))

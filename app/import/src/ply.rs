@@ -375,7 +375,6 @@ pub(crate) fn unexpected_end(el: &Element, present: u64) -> PlyError {
 /// The decoded values of a batch of whole rows, and whether the input ended within it.
 struct Decoded {
     values: Vec<f64>,
-    rows: usize,
     ended: bool,
 }
 
@@ -420,7 +419,7 @@ impl<R: BufRead + ?Sized> Batches<'_, R> {
         }
         let ended = got < self.buf.len();
         self.done = if ended { self.el.count } else { self.done + rows as u64 };
-        Some(Ok(Decoded { values, rows: got / self.size, ended }))
+        Some(Ok(Decoded { values, ended }))
     }
 }
 
@@ -446,11 +445,11 @@ fn read_fixed_rows(
     // Visits the rows of a batch; hands its buffer back.
     let mut visited = 0u64;
     let mut take = |d: Decoded| -> Result<Vec<f64>, PlyError> {
-        for (i, values) in d.values.chunks_exact(row.values.len()).enumerate() {
+        for values in d.values.chunks_exact(row.values.len()) {
             row.values.copy_from_slice(values);
-            visit(ei, visited + i as u64, row)?;
+            visit(ei, visited, row)?;
+            visited += 1;
         }
-        visited += d.rows as u64;
         if d.ended {
             return Err(unexpected_end(el, visited));
         }
@@ -465,13 +464,13 @@ fn read_fixed_rows(
                 spare.send(Vec::new()).expect("its receiver is here");
             }
             let source = &mut batches;
-            // The decoder stops after the last batch, a short one or a failure, or when the
-            // visits stop (their side hangs up: it may finish the read it is in first).
+            // The decoder stops after the last batch, a short one or a failure (`next` has
+            // none after them), or when the visits stop (their side hangs up: it may finish the
+            // read it is in first).
             let decoder = move || {
                 while let Ok(values) = spare_rx.recv() {
                     let Some(d) = source.next(values) else { return };
-                    let last = !matches!(d, Ok(Decoded { ended: false, .. }));
-                    if decoded_tx.send(d).is_err() || last {
+                    if decoded_tx.send(d).is_err() {
                         return;
                     }
                 }

@@ -239,14 +239,12 @@ fn parse_line(line: &[u8], el: &Element, out: &mut Piece) -> Result<(), String> 
     Ok(())
 }
 
-/// The value of property `name` of type `ty` from the next token (an integer read in one pass
-/// where it is a plain one).
+/// The value of property `name` of type `ty` from the next token.
 #[inline]
 fn parse_value(tok: &mut Tokens<'_>, ty: Scalar, name: &str) -> Result<f64, String> {
     let missing = || format!("missing value for property '{name}'");
     let v = match ty.range() {
-        Some((lo, hi)) => match tok.next_int().ok_or_else(missing)?.or_else(|t| lines::parse_i64(t).ok_or(t))
-        {
+        Some((lo, hi)) => match tok.next_int().ok_or_else(missing)? {
             Ok(v) if (lo..=hi).contains(&(v as f64)) => v as f64,
             Ok(v) => return Err(format!("property '{name}': {v} out of range for {}", ty.name())),
             Err(t) => return Err(not_a(t, "an integer", name)),
