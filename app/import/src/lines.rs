@@ -273,7 +273,8 @@ impl<'a> Tokens<'a> {
         let digits = i;
         let mut v = 0i64;
         // At most 18 digits (no overflow); a longer run of digits is refused below.
-        while i < b.len() && i - digits < 18 {
+        let most = b.len().min(digits + 18);
+        while i < most {
             let d = b[i].wrapping_sub(b'0');
             if d > 9 {
                 break;
@@ -290,6 +291,37 @@ impl<'a> Tokens<'a> {
         }
         *self = Self::Ascii(&b[i..]);
         Some(Ok(if negative { -v } else { v }))
+    }
+}
+
+impl<'a> Tokens<'a> {
+    /// The next token as the `f64` [`parse_f64`] reads from it, or `Err(token)` when it is not a
+    /// number. `None` at the end of the line. The number is read in the same pass that finds the
+    /// token's end where it can be (`fast-float2` reads the longest number at the start of the
+    /// rest of the line, which is the token when whitespace or the end follows it); any other
+    /// token is parsed whole, as [`parse_f64`] parses it.
+    #[inline]
+    pub(crate) fn next_f64(&mut self) -> Option<Result<f64, &'a [u8]>> {
+        let b = match self {
+            Self::Ascii(rest) => *rest,
+            Self::Unicode(_) => return self.next().map(|t| parse_f64(t).ok_or(t)),
+        };
+        let start = skip(b, 0, true);
+        if start == b.len() {
+            *self = Self::Ascii(&[]);
+            return None;
+        }
+        if let Ok((v, n)) = fast_float2::parse_partial::<f64, _>(&b[start..]) {
+            let end = start + n;
+            if end == b.len() || is_space(b[end]) {
+                *self = Self::Ascii(&b[end..]);
+                return Some(Ok(v));
+            }
+        }
+        let end = skip(b, start, false);
+        *self = Self::Ascii(&b[end..]);
+        let t = &b[start..end];
+        Some(parse_f64(t).ok_or(t))
     }
 }
 
@@ -437,6 +469,33 @@ mod tests {
                     (Ok(a), Err(b)) => panic!("{line:?}: {a} taken from {b:?}"),
                 }
             }
+        }
+    }
+
+    #[test]
+    fn float_tokens_read_in_one_pass_match_the_tokens_and_their_parse() {
+        let mut lines = vec![
+            "1.5 -2e3 +.5 7. 1e 1e+ 0x10 nan -inf infinity infx 1.5.2 1,5 -- - + . e5 3".to_string(),
+            "  -0.0378297\t0.127423 -0.00326827\r".to_string(),
+            "1e400 -1e-400 4.9e-324 123456789012345678901234567890 00012 1_000".to_string(),
+            "1\u{a0}2.5 3".to_string(),
+            String::new(),
+            "   ".to_string(),
+        ];
+        let mut rng = rand_pcg::Pcg64::new(3, 5);
+        for _ in 0..2000 {
+            use rand::Rng;
+            let v = f64::from_bits(rng.random());
+            let short = f64::from(v as f32);
+            lines.push(format!("{v} {v:e} {short} {short:.6}x {:.6} {v}", short));
+        }
+        for line in &lines {
+            let want: Vec<Result<u64, &[u8]>> =
+                Tokens::new(line.as_bytes()).map(|t| parse_f64(t).map(f64::to_bits).ok_or(t)).collect();
+            let mut tok = Tokens::new(line.as_bytes());
+            let got: Vec<Result<u64, &[u8]>> =
+                std::iter::from_fn(|| tok.next_f64()).map(|r| r.map(f64::to_bits)).collect();
+            assert_eq!(got, want, "{line:?}");
         }
     }
 

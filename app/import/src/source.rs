@@ -6,7 +6,7 @@
 //! estimated by the builder. Non-finite coordinates are an error naming the row, or are dropped
 //! and counted with `drop_invalid`.
 
-use crate::lines::{Stop, Tokens, parse_f64, parse_i64};
+use crate::lines::{Stop, Tokens, parse_i64};
 use crate::ply::{self, PlyError, PropKind};
 use glam::{DVec3, Vec3};
 use std::io::{BufRead, BufReader};
@@ -122,10 +122,7 @@ struct Buffered {
     /// Every vertex row, in order (a dropped one as a non-finite placeholder, so that face
     /// indices stay right; placeholders are never passed on).
     points: Vec<InputPoint>,
-    /// Per vertex, once a triangle is applied: the sum of its triangles' area-weighted normals,
-    /// and the largest of their circumradii, squared.
-    faces: Vec<(DVec3, f64)>,
-    /// Triangles waiting for the vertices (OBJ, or PLY files whose faces come first).
+    /// The triangles of the faces, in file order, applied once every vertex is read.
     tris: Vec<[u32; 3]>,
 }
 
@@ -137,10 +134,20 @@ impl Buffered {
         self.points.push(InputPoint { pos, normal: Vec3::ZERO, color: [0; 4], radius: 0.0 });
     }
 
-    /// Takes the triangles (a fan) of a polygon: applied at once when every vertex is read
-    /// (`vertices_read`), else in [`Buffered::finish`]. A polygon with fewer than 3 vertices or
-    /// an index out of range is an error (a broken mesh).
+    /// Takes the triangles (a fan) of a polygon, applied in [`Buffered::finish`]. A polygon with
+    /// fewer than 3 vertices or an index out of range is an error (a broken mesh); indices are
+    /// checked against the vertices here when every vertex is read already (`vertices_read`),
+    /// else in [`Buffered::finish`].
     fn add_polygon(&mut self, idx: &[f64], vertices_read: bool) -> Result<(), String> {
+        // A triangle whose indices are all in range (most faces of most meshes) takes one test.
+        if let [a, b, c] = *idx {
+            let n = if vertices_read { self.points.len() as f64 } else { f64::from(u32::MAX) };
+            let below = n.min(f64::from(u32::MAX));
+            if a >= 0.0 && b >= 0.0 && c >= 0.0 && a < below && b < below && c < below {
+                self.tris.push([a as u32, b as u32, c as u32]);
+                return Ok(());
+            }
+        }
         if idx.len() < 3 {
             return Err(format!("polygon with {} vertex index(es); a face needs at least 3", idx.len()));
         }
@@ -153,44 +160,12 @@ impl Buffered {
                 "vertex index {bad} is out of range: the file has {n} vertices (indices start at 0)"
             ));
         }
-        for k in 1..idx.len() - 1 {
-            let t = [idx[0], idx[k], idx[k + 1]].map(|i| i as u32);
-            if vertices_read { self.apply(t) } else { self.tris.push(t) }
-        }
+        self.tris.extend((1..idx.len() - 1).map(|k| [idx[0], idx[k], idx[k + 1]].map(|i| i as u32)));
         Ok(())
     }
 
-    /// Adds a triangle's area-weighted normal and circumradius to its vertices (all read).
-    fn apply(&mut self, t: [u32; 3]) {
-        if self.faces.is_empty() {
-            self.faces = vec![(DVec3::ZERO, 0.0); self.points.len()];
-        }
-        let [a, b, c] = t.map(|i| self.points[i as usize].pos);
-        if !(a.is_finite() && b.is_finite() && c.is_finite()) {
-            // A dropped vertex: its triangles give nothing to the others.
-            return;
-        }
-        // Cross product length = 2 × area: area weighting for free.
-        let nrm = (b - a).cross(c - a);
-        // Every point of a triangle is within its circumradius of a vertex, so discs of that
-        // radius at the vertices leave no hole (capped by the longest edge for slivers, whose
-        // circumradius explodes). Squared, so that a vertex takes one square root in all.
-        let (ab, bc, ca) = ((b - a).length_squared(), (c - b).length_squared(), (a - c).length_squared());
-        let longest = ab.max(bc).max(ca);
-        // |n|² = 4 × area²; the circumradius² is ab² bc² ca² / (4 |n|²), taken in an order that
-        // keeps the products within the range of |n|² itself.
-        let n2 = nrm.length_squared();
-        let circum = if n2 > 0.0 { ab * (bc / n2) * ca * 0.25 } else { longest };
-        let r2 = circum.min(longest);
-        for i in t {
-            let f = &mut self.faces[i as usize];
-            f.0 += nrm;
-            f.1 = f.1.max(r2);
-        }
-    }
-
-    /// Applies the waiting triangles and passes the vertices on with their face normals (where
-    /// they have none of their own) and radii.
+    /// Applies the triangles and passes the vertices on with their face normals (where they
+    /// have none of their own) and radii.
     fn finish(mut self, report: &mut ReadReport, sink: &mut Sink<'_>) -> Result<(), ReadError> {
         let n = self.points.len();
         if let Some(t) = self.tris.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
@@ -199,24 +174,82 @@ impl Buffered {
                 t.iter().max().copied().unwrap_or(0)
             )));
         }
-        for t in std::mem::take(&mut self.tris) {
-            self.apply(t);
+        if !self.tris.is_empty() {
+            apply_triangles(&mut self.points, &std::mem::take(&mut self.tris));
         }
-        for (i, mut p) in self.points.into_iter().enumerate() {
+        for p in self.points {
             if !p.pos.is_finite() {
                 continue;
-            }
-            if let Some(&(nrm, r2)) = self.faces.get(i) {
-                if p.normal == Vec3::ZERO {
-                    p.normal = nrm.try_normalize().map_or(Vec3::ZERO, |v| v.as_vec3());
-                }
-                p.radius = r2.sqrt() as f32;
             }
             sink(p).map_err(ReadError::Sink)?;
             report.points += 1;
         }
         Ok(())
     }
+}
+
+/// Gives every vertex the normalised sum of its triangles' area-weighted normals (where it has
+/// no normal of its own) and, as its radius, the largest of their circumradii; a vertex in no
+/// triangle gets radius 0. Every index must be below `points.len()`.
+///
+/// In parallel, deterministically: the vertices are split into one range per thread of the
+/// pool, and each range takes the triangles that touch it in file order (a triangle across two
+/// ranges is computed in both, to the same value), so every vertex sums its triangles in the
+/// order of the file, as one pass over them would.
+fn apply_triangles(points: &mut [InputPoint], tris: &[[u32; 3]]) {
+    use rayon::prelude::*;
+    let per = points.len().div_ceil(rayon::current_num_threads().max(1)).max(1);
+    let all: &[InputPoint] = points;
+    let sums: Vec<Vec<(DVec3, f64)>> = (0..all.len().div_ceil(per))
+        .into_par_iter()
+        .map(|j| {
+            let lo = j * per;
+            let mut sums = vec![(DVec3::ZERO, 0.0f64); per.min(all.len() - lo)];
+            for &t in tris {
+                let local = t.map(|i| (i as usize).wrapping_sub(lo));
+                if local.iter().all(|&k| k >= sums.len()) {
+                    continue;
+                }
+                let Some((nrm, r2)) = triangle_terms(t.map(|i| all[i as usize].pos)) else { continue };
+                for k in local {
+                    if let Some(s) = sums.get_mut(k) {
+                        s.0 += nrm;
+                        s.1 = s.1.max(r2);
+                    }
+                }
+            }
+            sums
+        })
+        .collect();
+    points.par_chunks_mut(per).zip(sums).for_each(|(points, sums)| {
+        for (p, (nrm, r2)) in points.iter_mut().zip(sums) {
+            if p.normal == Vec3::ZERO {
+                p.normal = nrm.try_normalize().map_or(Vec3::ZERO, |v| v.as_vec3());
+            }
+            p.radius = r2.sqrt() as f32;
+        }
+    });
+}
+
+/// A triangle's area-weighted normal and its circumradius squared (capped by its longest edge),
+/// or `None` when a vertex was dropped (its triangles give nothing to the others).
+#[inline]
+fn triangle_terms([a, b, c]: [DVec3; 3]) -> Option<(DVec3, f64)> {
+    if !(a.is_finite() && b.is_finite() && c.is_finite()) {
+        return None;
+    }
+    // Cross product length = 2 × area: area weighting for free.
+    let nrm = (b - a).cross(c - a);
+    // Every point of a triangle is within its circumradius of a vertex, so discs of that
+    // radius at the vertices leave no hole (capped by the longest edge for slivers, whose
+    // circumradius explodes). Squared, so that a vertex takes one square root in all.
+    let (ab, bc, ca) = ((b - a).length_squared(), (c - b).length_squared(), (a - c).length_squared());
+    let longest = ab.max(bc).max(ca);
+    // |n|² = 4 × area²; the circumradius² is ab² bc² ca² / (4 |n|²), taken in an order that
+    // keeps the products within the range of |n|² itself.
+    let n2 = nrm.length_squared();
+    let circum = if n2 > 0.0 { ab * (bc / n2) * ca * 0.25 } else { longest };
+    Some((nrm, circum.min(longest)))
 }
 
 fn color_channel(v: f64, ty: ply::Scalar) -> u8 {
@@ -528,9 +561,8 @@ fn parse_obj_line(text: &[u8], line: usize, p: &mut ObjPiece) -> Result<(), Stri
     match tok.next() {
         Some(b"v") => {
             let start = p.values.len();
-            for t in tok {
-                let v = parse_f64(t).ok_or_else(|| format!("'{}' is not a number", quoted(t)))?;
-                p.values.push(v);
+            while let Some(v) = tok.next_f64() {
+                p.values.push(v.map_err(|t| format!("'{}' is not a number", quoted(t)))?);
             }
             let n = p.values.len() - start;
             if n < 3 {

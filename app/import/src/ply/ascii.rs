@@ -239,26 +239,34 @@ fn parse_line(line: &[u8], el: &Element, out: &mut Piece) -> Result<(), String> 
     Ok(())
 }
 
-/// The value of property `name` of type `ty` from the next token.
-#[inline]
+/// The value of property `name` of type `ty` from the next token (inlined into the row loop:
+/// the errors are made out of line).
+#[inline(always)]
 fn parse_value(tok: &mut Tokens<'_>, ty: Scalar, name: &str) -> Result<f64, String> {
-    let missing = || format!("missing value for property '{name}'");
-    let v = match ty.range() {
-        Some((lo, hi)) => match tok.next_int().ok_or_else(missing)? {
-            Ok(v) if (lo..=hi).contains(&(v as f64)) => v as f64,
-            Ok(v) => return Err(format!("property '{name}': {v} out of range for {}", ty.name())),
-            Err(t) => return Err(not_a(t, "an integer", name)),
+    match ty.range() {
+        Some((lo, hi)) => match tok.next_int() {
+            Some(Ok(v)) if (lo..=hi).contains(&(v as f64)) => Ok(v as f64),
+            Some(Ok(v)) => Err(out_of_range(v, ty, name)),
+            Some(Err(t)) => Err(not_a(t, "an integer", name)),
+            None => Err(missing(name)),
         },
-        None => {
-            let t = tok.next().ok_or_else(missing)?;
-            match lines::parse_f64(t) {
-                Some(v) if ty == Scalar::F32 => f64::from(v as f32),
-                Some(v) => v,
-                None => return Err(not_a(t, "a number", name)),
-            }
-        }
-    };
-    Ok(v)
+        None => match tok.next_f64() {
+            Some(Ok(v)) if ty == Scalar::F32 => Ok(f64::from(v as f32)),
+            Some(Ok(v)) => Ok(v),
+            Some(Err(t)) => Err(not_a(t, "a number", name)),
+            None => Err(missing(name)),
+        },
+    }
+}
+
+#[cold]
+fn missing(name: &str) -> String {
+    format!("missing value for property '{name}'")
+}
+
+#[cold]
+fn out_of_range(v: i64, ty: Scalar, name: &str) -> String {
+    format!("property '{name}': {v} out of range for {}", ty.name())
 }
 
 #[cold]
