@@ -67,18 +67,34 @@ pub fn import(scan: &Path, out: &Path, opts: &ImportOptions) -> anyhow::Result<I
     let mut builder = Builder::new(opts.build, tmp_dir)?;
     let pb = bar(opts.progress);
     pb.set_message("reading");
-    let mut read = 0u64;
-    let report = source::read_file(scan, &opts.read, &mut |p| {
-        read += 1;
-        if read.is_multiple_of(65536) {
-            pb.set_position(read);
-        }
-        builder.push(p).map_err(|e| e.to_string())
-    })
-    .with_context(|| format!("{}", scan.display()))?;
+    let report = source::read_file(scan, &opts.read, &mut Feed { builder: &mut builder, pb: &pb, read: 0 })
+        .with_context(|| format!("{}", scan.display()))?;
     let summary = build(builder, out, &pb)?;
     pb.finish_and_clear();
     Ok(ImportReport { build: summary, warnings: report.warnings, seconds: start.elapsed().as_secs_f64() })
+}
+
+/// The builder fed by a reader, with the points read on the progress bar.
+struct Feed<'a> {
+    builder: &'a mut Builder,
+    pb: &'a ProgressBar,
+    read: u64,
+}
+
+impl source::Sink for Feed<'_> {
+    fn point(&mut self, p: source::InputPoint) -> Result<(), String> {
+        self.read += 1;
+        if self.read.is_multiple_of(65536) {
+            self.pb.set_position(self.read);
+        }
+        self.builder.push(p).map_err(|e| e.to_string())
+    }
+
+    fn points(&mut self, points: Vec<source::InputPoint>) -> Result<(), String> {
+        self.read += points.len() as u64;
+        self.pb.set_position(self.read);
+        self.builder.push_all(points).map_err(|e| e.to_string())
+    }
 }
 
 /// Runs the builder with a progress bar.

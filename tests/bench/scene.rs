@@ -11,6 +11,7 @@
 //! 4. speed against accuracy: node size M, search depth and K against query time and error; the
 //!    neighbours k and the spacing stride of the estimation against its time and error.
 
+use anyhow::Context;
 use glam::{DVec3, Vec3};
 use kiosk::MappedStore;
 use kiosk_core::scene::query::Level;
@@ -216,17 +217,7 @@ fn child_build(input: &str, m: usize, out: &str, spacing_stride: usize) -> anyho
     };
     let start = Instant::now();
     let mut b = Builder::new(params, tmp)?;
-    let mut err = None;
-    let read = source::read_file(&path, &ReadOptions::default(), &mut |p| {
-        b.push(p).map_err(|e| {
-            err = Some(e.to_string());
-            "push".to_string()
-        })
-    });
-    if let Some(e) = err {
-        anyhow::bail!("build of {label}: {e}");
-    }
-    read?;
+    source::read_file(&path, &ReadOptions::default(), &mut b).with_context(|| format!("build of {label}"))?;
     let read = start.elapsed().as_secs_f64();
     let s = b.finish(out, &mut |_| {})?;
     let secs = start.elapsed().as_secs_f64();

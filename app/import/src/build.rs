@@ -162,6 +162,44 @@ impl From<InputPoint> for RawRec {
     }
 }
 
+/// A sample as the builder holds it: as pushed (in memory) or as spilled (read back from cells).
+trait Record: Copy + Send + Sync + 'static {
+    fn position(&self) -> DVec3;
+    fn spilled(&self) -> RawRec;
+    /// Normal, colour and radius.
+    fn attributes(&self) -> (Vec3, [u8; 4], f32);
+}
+
+impl Record for InputPoint {
+    #[inline]
+    fn position(&self) -> DVec3 {
+        self.pos
+    }
+    #[inline]
+    fn spilled(&self) -> RawRec {
+        RawRec::from(*self)
+    }
+    #[inline]
+    fn attributes(&self) -> (Vec3, [u8; 4], f32) {
+        (self.normal, self.color, self.radius)
+    }
+}
+
+impl Record for RawRec {
+    #[inline]
+    fn position(&self) -> DVec3 {
+        DVec3::from_array(self.pos)
+    }
+    #[inline]
+    fn spilled(&self) -> RawRec {
+        *self
+    }
+    #[inline]
+    fn attributes(&self) -> (Vec3, [u8; 4], f32) {
+        (Vec3::from_array(self.normal), self.color, self.radius)
+    }
+}
+
 /// A sample being processed, in local coordinates.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Work {
@@ -179,8 +217,9 @@ impl boxtree::HasPosition for Work {
 }
 
 enum Spill {
-    Memory(Vec<RawRec>),
-    Cells(CellWriter),
+    /// The samples as pushed (a mesh's vertices are taken over whole, see [`Builder::push_all`]).
+    Memory(Vec<InputPoint>),
+    Cells(CellWriter<InputPoint>),
 }
 
 /// Samples per batch handed to the cell writer.
@@ -193,9 +232,9 @@ const CELLS_PER_REGION: usize = 32;
 /// Sorts samples into the cell files of a kd-tree (chosen on the samples seen when memory ran
 /// out) on a thread of its own, so that reading the input and writing the cells overlap.
 /// Batches queue up to a few (memory stays bounded).
-struct CellWriter {
-    batch: Vec<RawRec>,
-    tx: Option<std::sync::mpsc::SyncSender<Vec<RawRec>>>,
+struct CellWriter<R> {
+    batch: Vec<R>,
+    tx: Option<std::sync::mpsc::SyncSender<Vec<R>>>,
     thread: Option<std::thread::JoinHandle<std::io::Result<Cells>>>,
 }
 
@@ -208,19 +247,19 @@ struct Cell {
     count: u64,
 }
 
-impl CellWriter {
+impl<R: Record> CellWriter<R> {
     /// Starts the cells of `tree` with `first`.
-    fn start(tmp_dir: &Path, tree: TopTree, first: Vec<RawRec>) -> std::io::Result<Self> {
+    fn start(tmp_dir: &Path, tree: TopTree, first: Vec<R>) -> std::io::Result<Self> {
         let mut cells = Vec::with_capacity(tree.leaves());
         for _ in 0..tree.leaves() {
             cells.push((BufWriter::with_capacity(1 << 16, tempfile::NamedTempFile::new_in(tmp_dir)?), 0u64));
         }
-        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<RawRec>>(4);
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<R>>(4);
         let thread = std::thread::Builder::new().name("cells".into()).spawn(move || {
             for batch in rx {
                 for rec in &batch {
-                    let (w, count) = &mut cells[tree.locate(DVec3::from_array(rec.pos))];
-                    w.write_all(bytemuck::bytes_of(rec))?;
+                    let (w, count) = &mut cells[tree.locate(rec.position())];
+                    w.write_all(bytemuck::bytes_of(&rec.spilled()))?;
                     *count += 1;
                 }
             }
@@ -237,7 +276,7 @@ impl CellWriter {
         Ok(w)
     }
 
-    fn push(&mut self, r: RawRec) -> std::io::Result<()> {
+    fn push(&mut self, r: R) -> std::io::Result<()> {
         self.batch.push(r);
         if self.batch.len() >= SPILL_BATCH {
             let batch = std::mem::replace(&mut self.batch, Vec::with_capacity(SPILL_BATCH));
@@ -246,7 +285,7 @@ impl CellWriter {
         Ok(())
     }
 
-    fn send(&mut self, batch: Vec<RawRec>) -> std::io::Result<()> {
+    fn send(&mut self, batch: Vec<R>) -> std::io::Result<()> {
         match &self.tx {
             Some(tx) if tx.send(batch).is_ok() => Ok(()),
             // The thread stopped: its error says why.
@@ -321,22 +360,48 @@ impl Builder {
         self.max = self.max.max(p.pos);
         match &mut self.spill {
             Spill::Memory(v) => {
-                v.push(p.into());
+                v.push(p);
                 if v.len() > self.params.chunk_points {
                     // Memory is full: from now on samples go to the cells of a kd-tree chosen on
                     // those seen so far, fine enough that regions can be assembled from whole
                     // subtrees of cells (cells that overflow are split again at the end).
                     let first = std::mem::take(v);
                     let mut reservoir = Reservoir::new(self.params.sample_size, self.params.seed);
-                    first.iter().for_each(|rec| reservoir.offer(DVec3::from_array(rec.pos)));
+                    first.iter().for_each(|p| reservoir.offer(p.pos));
                     let cell = (self.params.chunk_points / 2 / CELLS_PER_REGION).max(1);
                     let tree = TopTree::build(&reservoir.sample, self.count, cell);
                     self.spill = Spill::Cells(CellWriter::start(&self.tmp_dir, tree, first)?);
                 }
             }
-            Spill::Cells(w) => w.push(p.into())?,
+            Spill::Cells(w) => w.push(p)?,
         }
         Ok(())
+    }
+
+    /// Adds samples as [`Builder::push`] adds them one by one. Taken over whole (no copy) when
+    /// they are the first and fit in memory: the vertices of a mesh, read before its faces are
+    /// applied.
+    pub fn push_all(&mut self, points: Vec<InputPoint>) -> Result<(), BuildError> {
+        match &mut self.spill {
+            Spill::Memory(v) if v.is_empty() && points.len() <= self.params.chunk_points => {
+                let (mut min, mut max) = (self.min, self.max);
+                for (i, p) in points.iter().enumerate() {
+                    if !p.pos.is_finite() {
+                        return Err(BuildError::Degenerate(format!(
+                            "sample {} has a non-finite position",
+                            self.count + i as u64 + 1
+                        )));
+                    }
+                    min = min.min(p.pos);
+                    max = max.max(p.pos);
+                }
+                (self.min, self.max) = (min, max);
+                self.count += points.len() as u64;
+                *v = points;
+                Ok(())
+            }
+            _ => points.into_iter().try_for_each(|p| self.push(p)),
+        }
     }
 
     /// Samples pushed so far.
@@ -399,6 +464,8 @@ impl Builder {
         };
         let timings = ctx.timings;
         let largest_region = ctx.largest_region;
+        // Freed while the writer writes the last nodes, not after.
+        drop(std::mem::take(&mut ctx.scratch));
         let writer = ctx.sink.finish()?;
         let root = root.id;
         let levels = writer.node(root).height + 1;
@@ -686,7 +753,7 @@ impl Ctx<'_> {
     }
 
     /// Processes one in-memory region into a subtree.
-    fn region(&mut self, recs: &[RawRec], origin: DVec3) -> Result<Sub, BuildError> {
+    fn region<R: Record>(&mut self, recs: &[R], origin: DVec3) -> Result<Sub, BuildError> {
         let mut clock = std::time::Instant::now();
         let n_in = recs.len() as u64;
         self.largest_region = self.largest_region.max(n_in);
@@ -694,7 +761,8 @@ impl Ctx<'_> {
         let pts = &mut s.pts;
         recs.par_iter()
             .map(|r| {
-                ((DVec3::from_array(r.pos) - origin).as_vec3(), Vec3::from_array(r.normal), r.color, r.radius)
+                let (normal, color, radius) = r.attributes();
+                ((r.position() - origin).as_vec3(), normal, color, radius)
             })
             .collect_into_vec(pts);
         // Merge duplicates (identical stored positions): average their normals and colours. A
@@ -1334,6 +1402,51 @@ mod tests {
         let r = build_points(order.into_iter().map(grid), params).expect("builds");
         assert_eq!(r.leaf_points, 20_000);
         assert!(r.largest_region <= 1000, "a region of {} samples", r.largest_region);
+    }
+
+    #[test]
+    fn samples_pushed_all_at_once_make_the_store_pushing_them_one_by_one_makes() {
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
+        let points: Vec<InputPoint> = (0..6000)
+            .map(|_| InputPoint {
+                pos: DVec3::new(rng.random(), rng.random(), rng.random::<f64>() * 0.1),
+                normal: Vec3::Z,
+                color: [rng.random(), 7, 9, 255],
+                radius: rng.random::<f32>() * 0.01,
+            })
+            .collect();
+        let dir = tempfile::tempdir().expect("temp dir");
+        let store = |name: &str, params: BuildParams, whole: usize| -> Vec<u8> {
+            let mut b = Builder::new(params, dir.path()).expect("valid settings");
+            // The first `whole` at once (taken over when they fit in memory), the rest one by one.
+            b.push_all(points[..whole].to_vec()).expect("pushed");
+            for &p in &points[whole..] {
+                b.push(p).expect("pushed");
+            }
+            let path = dir.path().join(name);
+            b.finish(&path, &mut |_| {}).expect("builds");
+            std::fs::read(path).expect("store")
+        };
+        // In memory, and past the memory of 4000 samples (spilled to cells).
+        for chunk_points in [10_000, 4000] {
+            let params = BuildParams { node_points: 64, chunk_points, ..Default::default() };
+            let one_by_one = store("a.kstore", params, 0);
+            for whole in [6000, 3000] {
+                assert!(
+                    store("b.kstore", params, whole) == one_by_one,
+                    "chunk {chunk_points}, {whole} at once"
+                );
+            }
+        }
+        let mut bad = points.clone();
+        bad[4321].pos.y = f64::NAN;
+        // Taken over, or one by one after a first sample: the error names the sample.
+        for (before, nth) in [(0, 4322), (1, 4323)] {
+            let mut b = Builder::new(BuildParams::default(), dir.path()).expect("valid settings");
+            points[..before].iter().for_each(|&p| b.push(p).expect("pushed"));
+            let err = b.push_all(bad.clone()).expect_err("a NaN");
+            assert!(err.to_string().contains(&format!("sample {nth} has a non-finite position")), "{err}");
+        }
     }
 
     #[test]

@@ -90,8 +90,34 @@ pub struct ReadReport {
     pub warnings: Vec<String>,
 }
 
-/// The consumer of read points.
-pub type Sink<'a> = dyn FnMut(InputPoint) -> Result<(), String> + 'a;
+/// The consumer of read points: a closure taking them one by one, or the builder itself (which
+/// takes a mesh's vertices over whole).
+pub trait Sink {
+    /// Takes one point; an error stops the reading.
+    fn point(&mut self, p: InputPoint) -> Result<(), String>;
+
+    /// Takes points in file order, all at once (the vertices of a mesh, once its faces are
+    /// applied); one by one unless the consumer can do better.
+    fn points(&mut self, points: Vec<InputPoint>) -> Result<(), String> {
+        points.into_iter().try_for_each(|p| self.point(p))
+    }
+}
+
+impl<F: FnMut(InputPoint) -> Result<(), String>> Sink for F {
+    fn point(&mut self, p: InputPoint) -> Result<(), String> {
+        self(p)
+    }
+}
+
+impl Sink for crate::Builder {
+    fn point(&mut self, p: InputPoint) -> Result<(), String> {
+        self.push(p).map_err(|e| e.to_string())
+    }
+
+    fn points(&mut self, points: Vec<InputPoint>) -> Result<(), String> {
+        self.push_all(points).map_err(|e| e.to_string())
+    }
+}
 
 /// Opens a file, unwrapping gzip when its first bytes say so.
 pub fn open(path: &Path) -> std::io::Result<Box<dyn BufRead + Send>> {
@@ -111,7 +137,7 @@ pub fn is_obj(path: &Path) -> bool {
 }
 
 /// Reads a PLY or OBJ file (by extension; gzip detected by content).
-pub fn read_file(path: &Path, opts: &ReadOptions, sink: &mut Sink<'_>) -> Result<ReadReport, ReadError> {
+pub fn read_file(path: &Path, opts: &ReadOptions, sink: &mut dyn Sink) -> Result<ReadReport, ReadError> {
     let mut r = open(path)?;
     if is_obj(path) { read_obj(&mut r, opts, sink) } else { read_ply(&mut r, opts, sink) }
 }
@@ -166,7 +192,7 @@ impl Buffered {
 
     /// Applies the triangles and passes the vertices on with their face normals (where they
     /// have none of their own) and radii.
-    fn finish(mut self, report: &mut ReadReport, sink: &mut Sink<'_>) -> Result<(), ReadError> {
+    fn finish(mut self, report: &mut ReadReport, sink: &mut dyn Sink) -> Result<(), ReadError> {
         let n = self.points.len();
         if let Some(t) = self.tris.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
             return Err(ReadError::Unusable(format!(
@@ -177,14 +203,10 @@ impl Buffered {
         if !self.tris.is_empty() {
             apply_triangles(&mut self.points, &std::mem::take(&mut self.tris));
         }
-        for p in self.points {
-            if !p.pos.is_finite() {
-                continue;
-            }
-            sink(p).map_err(ReadError::Sink)?;
-            report.points += 1;
-        }
-        Ok(())
+        // Dropped vertices kept their place for the faces only.
+        self.points.retain(|p| p.pos.is_finite());
+        report.points += self.points.len() as u64;
+        sink.points(self.points).map_err(ReadError::Sink)
     }
 }
 
@@ -267,7 +289,7 @@ fn color_channel(v: f64, ty: ply::Scalar) -> u8 {
 pub fn read_ply(
     r: &mut (dyn BufRead + Send),
     opts: &ReadOptions,
-    sink: &mut Sink<'_>,
+    sink: &mut dyn Sink,
 ) -> Result<ReadReport, ReadError> {
     let header = ply::read_header(r)?;
     let mut report = ReadReport { warnings: header.warnings.clone(), ..Default::default() };
@@ -373,7 +395,7 @@ pub fn read_ply(
             if use_faces {
                 buffered.points.push(p);
             } else if sink_err.is_none() {
-                match sink(p) {
+                match sink.point(p) {
                     Ok(()) => report.points += 1,
                     Err(e) => sink_err = Some(e),
                 }
@@ -409,7 +431,7 @@ pub fn read_ply(
 pub fn read_obj(
     r: &mut dyn BufRead,
     opts: &ReadOptions,
-    sink: &mut Sink<'_>,
+    sink: &mut dyn Sink,
 ) -> Result<ReadReport, ReadError> {
     let mut report = ReadReport::default();
     let mut buffered = Buffered::default();
