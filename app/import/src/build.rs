@@ -845,26 +845,31 @@ impl Ctx<'_> {
         r
     }
 
-    /// Builds the subtree of one region (both halves of every split in parallel), then writes
-    /// its nodes in post order so that stores are identical whatever the scheduling.
+    /// Builds the subtree of one region (both halves of every split in parallel), sending each
+    /// node to the writer as it is made: ids in post order, known from the sample counts, so
+    /// that stores are identical whatever the scheduling.
     fn split(&mut self, work: &mut [Work], h2: &mut [f32]) -> Result<Sub, BuildError> {
-        let built = build_subtree(work, h2, &self.params);
-        let base = self.sink.next_id();
-        let nodes = built
-            .nodes
-            .into_iter()
-            .map(|node| PendingNode {
-                children: node.children.map(|c| c.map(|i| base + i)),
-                stats: NodeStats { spacing: node.spacing, data_crc: node.data_crc },
-                splats: node.splats,
-                boxes: node.boxes,
-            })
-            .collect();
-        let last = self.sink.send(nodes)?;
+        let before = self.sink.next_id();
+        let base = self.sink.reserve(subtree_nodes(work.len(), self.params.node_points));
+        let sender = self.sink.sender()?;
+        let emit = |id: u32, node: NodeOut| {
+            sender.send(
+                id,
+                PendingNode {
+                    children: node.children,
+                    stats: NodeStats { spacing: node.spacing, data_crc: node.data_crc },
+                    splats: node.splats,
+                    boxes: node.boxes,
+                },
+            );
+        };
+        let built = build_subtree(work, h2, &self.params, base, &emit);
+        // The nodes of the regions before this one are written before the next is built: at
+        // most this region's nodes wait in memory.
+        self.sink.wait_written(before)?;
         self.done += work.len() as u64;
         (self.progress)(Stage::Build(self.done, self.total));
-        let id = last.ok_or_else(|| BuildError::Degenerate("empty region".into()))?;
-        Ok(Sub { id, samples: built.samples, spacing: built.spacing })
+        Ok(Sub { id: built.id, samples: built.samples, spacing: built.spacing })
     }
 
     /// Makes the parent of two subtrees by simplifying the union of their samples.
@@ -876,7 +881,7 @@ impl Ctx<'_> {
             children: Some([a.id, b.id]),
             stats: NodeStats { spacing: parent.spacing, data_crc: parent.data_crc },
         };
-        let id = self.sink.send(vec![node])?.ok_or_else(|| BuildError::Degenerate("no parent".into()))?;
+        let id = self.sink.send(node)?;
         Ok(Sub { id, samples: parent.stored, spacing: parent.spacing })
     }
 }
@@ -895,11 +900,20 @@ struct NodeOut {
     stored: Vec<Work>,
 }
 
-/// A subtree built in memory: nodes in post order (the root last) and the root's samples.
+/// A subtree built: its root's id and samples.
 struct SubtreeOut {
-    nodes: Vec<NodeOut>,
+    id: u32,
     samples: Vec<Work>,
     spacing: f32,
+}
+
+/// The nodes [`build_subtree`] makes of `n` samples.
+fn subtree_nodes(n: usize, node_points: usize) -> u32 {
+    if n <= node_points {
+        1
+    } else {
+        1 + subtree_nodes(n / 2, node_points) + subtree_nodes(n - n / 2, node_points)
+    }
 }
 
 fn make_node(mut w: Vec<Work>, children: Option<[u32; 2]>, spacing: f32) -> NodeOut {
@@ -937,30 +951,37 @@ fn parent_of(a: Vec<Work>, ha: f32, b: Vec<Work>, hb: f32, params: &BuildParams)
 }
 
 /// Cuts the subtree out of samples in [`hierarchy_sort`] order (leaves of at most M samples),
-/// building both halves in parallel.
-fn build_subtree(work: &mut [Work], h2: &mut [f32], params: &BuildParams) -> SubtreeOut {
+/// building both halves in parallel, and passes each node to `emit` as it is made, with its id:
+/// `base` and on in post order (the root last; [`subtree_nodes`] of them).
+fn build_subtree(
+    work: &mut [Work],
+    h2: &mut [f32],
+    params: &BuildParams,
+    base: u32,
+    emit: &(dyn Fn(u32, NodeOut) + Sync),
+) -> SubtreeOut {
     if work.len() <= params.node_points {
         let spacing = (h2.iter().map(|&x| f64::from(x)).sum::<f64>() / h2.len() as f64).sqrt() as f32;
         let mut node = node_from_sorted(work, None, spacing);
         let samples = std::mem::take(&mut node.stored);
-        return SubtreeOut { nodes: vec![node], samples, spacing };
+        emit(base, node);
+        return SubtreeOut { id: base, samples, spacing };
     }
     let mid = work.len() / 2;
     let (wl, wr) = work.split_at_mut(mid);
     let (hl, hr) = h2.split_at_mut(mid);
-    let (l, r) = rayon::join(|| build_subtree(wl, hl, params), || build_subtree(wr, hr, params));
+    let right_base = base + subtree_nodes(mid, params.node_points);
+    let (l, r) = rayon::join(
+        || build_subtree(wl, hl, params, base, emit),
+        || build_subtree(wr, hr, params, right_base, emit),
+    );
     let mut parent = parent_of(l.samples, l.spacing, r.samples, r.spacing, params);
-    let (nl, nr) = (l.nodes.len() as u32, r.nodes.len() as u32);
-    let mut nodes = l.nodes;
-    nodes.extend(r.nodes.into_iter().map(|mut n| {
-        n.children = n.children.map(|c| c.map(|i| i + nl));
-        n
-    }));
-    parent.children = Some([nl - 1, nl + nr - 1]);
+    parent.children = Some([l.id, r.id]);
+    let id = r.id + 1;
     let samples = std::mem::take(&mut parent.stored);
     let spacing = parent.spacing;
-    nodes.push(parent);
-    SubtreeOut { nodes, samples, spacing }
+    emit(id, parent);
+    SubtreeOut { id, samples, spacing }
 }
 
 /// Calls `group` with the indices (ascending) of every set of at least two of the `n` samples at
@@ -1447,6 +1468,30 @@ mod tests {
             let err = b.push_all(bad.clone()).expect_err("a NaN");
             assert!(err.to_string().contains(&format!("sample {nth} has a non-finite position")), "{err}");
         }
+    }
+
+    #[test]
+    fn stores_are_identical_whatever_the_number_of_threads() {
+        // Several regions (nodes streamed to the writer as they are made, in any order).
+        let params = BuildParams { node_points: 64, chunk_points: 4000, ..Default::default() };
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(9);
+        let points: Vec<DVec3> = (0..12_000).map(|_| DVec3::new(rng.random(), rng.random(), 0.0)).collect();
+        let dir = tempfile::tempdir().expect("temp dir");
+        let store = |threads: usize| -> Vec<u8> {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("pool");
+            let path = dir.path().join(format!("t{threads}.kstore"));
+            pool.install(|| {
+                let mut b = Builder::new(params, dir.path()).expect("valid settings");
+                for &pos in &points {
+                    b.push(InputPoint { pos, normal: Vec3::Z, color: [0; 4], radius: 0.0 }).expect("pushed");
+                }
+                let s = b.finish(&path, &mut |_| {}).expect("builds");
+                assert!(s.chunks >= 2, "{} regions", s.chunks);
+            });
+            std::fs::read(path).expect("store")
+        };
+        let one = store(1);
+        assert!(store(2) == one && store(5) == one);
     }
 
     #[test]

@@ -186,56 +186,133 @@ pub struct PendingNode {
     pub stats: NodeStats,
 }
 
-/// A [`StoreWriter`] on a thread of its own: nodes are numbered as they are sent and written, in
-/// that order, while the builder goes on. Writing a big store is throttled by the kernel's
-/// write-back (4.6 s of a 50 M build), which would otherwise leave the other core idle. One batch
-/// is written while the next waits in the builder's hands, so memory stays bounded.
+/// A [`StoreWriter`] on a thread of its own. Nodes get their ids before they are made
+/// ([`NodeSink::reserve`]: a subtree's ids follow from its sample count), are sent from any
+/// thread in any order as they are made ([`NodeSender`]), and are written in id order, while
+/// the builder goes on. Writing a big store is throttled by the kernel's write-back (4.6 s of a
+/// 50 M build), which would otherwise leave the other core idle. The builder bounds memory by
+/// waiting for the writer ([`NodeSink::wait_written`]): a region's nodes are written while the
+/// next region is built, not later.
 pub struct NodeSink {
     next_id: u32,
-    tx: Option<std::sync::mpsc::SyncSender<Vec<PendingNode>>>,
+    tx: Option<std::sync::mpsc::Sender<(u32, PendingNode)>>,
+    written: std::sync::Arc<Written>,
     thread: Option<std::thread::JoinHandle<std::io::Result<StoreWriter>>>,
+}
+
+/// How far the writer got: every node below `.0` is written; `.1` once it stopped.
+#[derive(Default)]
+struct Written {
+    state: std::sync::Mutex<(u32, bool)>,
+    changed: std::sync::Condvar,
+}
+
+impl Written {
+    fn set(&self, f: impl FnOnce(&mut (u32, bool))) {
+        let mut state = self.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        f(&mut state);
+        self.changed.notify_all();
+    }
+}
+
+/// Sends nodes with reserved ids to a [`NodeSink`]'s writer, from any thread.
+#[derive(Clone)]
+pub struct NodeSender(std::sync::mpsc::Sender<(u32, PendingNode)>);
+
+impl NodeSender {
+    /// Sends node `id` (reserved). A writer that stopped takes nothing: its error comes from
+    /// [`NodeSink::wait_written`] or [`NodeSink::finish`].
+    pub fn send(&self, id: u32, node: PendingNode) {
+        let _ = self.0.send((id, node));
+    }
 }
 
 impl NodeSink {
     /// Starts the writing thread.
     pub fn start(mut writer: StoreWriter) -> std::io::Result<Self> {
         let next_id = writer.node_count();
-        // Rendezvous: a send waits until the thread has taken the batch before.
-        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<PendingNode>>(0);
+        let (tx, rx) = std::sync::mpsc::channel::<(u32, PendingNode)>();
+        let written = std::sync::Arc::new(Written {
+            state: std::sync::Mutex::new((next_id, false)),
+            ..Default::default()
+        });
+        let progress = written.clone();
         let thread = std::thread::Builder::new().name("store writer".into()).spawn(move || {
-            for batch in rx {
-                for n in batch {
-                    writer.add_node(&n.splats, &n.boxes, n.children, n.stats)?;
+            let result = (|| {
+                // Nodes that came before the ones below them.
+                let mut waiting = std::collections::BTreeMap::new();
+                for (id, node) in rx {
+                    waiting.insert(id, node);
+                    let first = writer.node_count();
+                    while let Some(n) = waiting.remove(&writer.node_count()) {
+                        writer.add_node(&n.splats, &n.boxes, n.children, n.stats)?;
+                    }
+                    if writer.node_count() > first {
+                        progress.set(|s| s.0 = writer.node_count());
+                    }
                 }
-            }
-            Ok(writer)
+                if let Some(&id) = waiting.keys().next() {
+                    return Err(std::io::Error::other(format!(
+                        "node {id} came without the nodes before it (the next to write is {})",
+                        writer.node_count()
+                    )));
+                }
+                Ok(writer)
+            })();
+            progress.set(|s| s.1 = true);
+            result
         })?;
-        Ok(Self { next_id, tx: Some(tx), thread: Some(thread) })
+        Ok(Self { next_id, tx: Some(tx), written, thread: Some(thread) })
     }
 
-    /// Id the next node sent will have.
+    /// Id the next node reserved will have.
     pub fn next_id(&self) -> u32 {
         self.next_id
     }
 
-    /// Queues `nodes` (children before parents); returns the id of the last one, `None` for none.
-    pub fn send(&mut self, nodes: Vec<PendingNode>) -> std::io::Result<Option<u32>> {
-        let n = nodes.len() as u32;
-        if n == 0 {
-            return Ok(None);
-        }
+    /// Reserves the ids of `n` nodes; returns the first.
+    pub fn reserve(&mut self, n: u32) -> u32 {
+        self.next_id += n;
+        self.next_id - n
+    }
+
+    /// A sender of nodes with reserved ids; the writer's error once it stopped.
+    pub fn sender(&mut self) -> std::io::Result<NodeSender> {
         match &self.tx {
-            Some(tx) if tx.send(nodes).is_ok() => {
-                self.next_id += n;
-                Ok(Some(self.next_id - 1))
+            Some(tx) => Ok(NodeSender(tx.clone())),
+            None => {
+                Err(self.join().err().unwrap_or_else(|| std::io::Error::other("the store writer stopped")))
             }
-            // The thread stopped: its error says why.
-            _ => Err(self.join().err().unwrap_or_else(|| std::io::Error::other("the store writer stopped"))),
         }
+    }
+
+    /// Sends `node` with the next id, and returns it.
+    pub fn send(&mut self, node: PendingNode) -> std::io::Result<u32> {
+        let sender = self.sender()?;
+        let id = self.reserve(1);
+        sender.send(id, node);
+        Ok(id)
+    }
+
+    /// Waits until every node below `id` is written; the writer's error if it stopped before.
+    pub fn wait_written(&mut self, id: u32) -> std::io::Result<()> {
+        let mut state = self.written.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        while state.0 < id && !state.1 {
+            state = self.written.changed.wait(state).unwrap_or_else(std::sync::PoisonError::into_inner);
+        }
+        if state.0 >= id {
+            return Ok(());
+        }
+        drop(state);
+        Err(self.join().err().unwrap_or_else(|| std::io::Error::other("the store writer stopped")))
     }
 
     /// Waits for every node to be written and returns the writer.
     pub fn finish(mut self) -> std::io::Result<StoreWriter> {
+        // Without its channel the writer stops once every sender is gone, written or not.
+        self.tx = None;
+        let id = self.next_id;
+        self.wait_written(id)?;
         self.join()
     }
 
@@ -253,5 +330,55 @@ impl Drop for NodeSink {
     fn drop(&mut self) {
         // A build that failed: the writer is dropped with its partial file.
         let _ = self.join();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    fn node(k: u32, children: Option<[u32; 2]>) -> PendingNode {
+        let splats: Vec<Splat> = (0..20)
+            .map(|i| Splat::new(Vec3::new(i as f32, k as f32, 0.5), Vec3::Z, 0.1, [k as u8, 0, 0, 255]))
+            .collect();
+        let boxes = kiosk_core::scene::boxtree::build_boxes(&splats);
+        let data_crc = store::node_data_crc(&splats, &boxes);
+        PendingNode { splats, boxes, children, stats: NodeStats { spacing: 0.2, data_crc } }
+    }
+
+    /// The store of two leaves and their parent, sent in `order` of ids.
+    fn store(dir: &Path, name: &str, order: [u32; 3]) -> std::io::Result<Vec<u8>> {
+        let path = dir.join(name);
+        let mut sink = NodeSink::start(StoreWriter::create(&path)?)?;
+        let base = sink.reserve(3);
+        let sender = sink.sender()?;
+        for id in order {
+            sender.send(base + id, node(id, (id == 2).then_some([base, base + 1])));
+        }
+        drop(sender);
+        sink.finish()?.finish([0.0; 3], 60, 32)?;
+        std::fs::read(path)
+    }
+
+    #[test]
+    fn nodes_sent_in_any_order_are_written_in_id_order() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let in_order = store(dir.path(), "a.kstore", [0, 1, 2]).expect("written");
+        for order in [[2, 1, 0], [1, 2, 0], [0, 2, 1]] {
+            assert!(store(dir.path(), "b.kstore", order).expect("written") == in_order, "{order:?}");
+        }
+    }
+
+    #[test]
+    fn a_reserved_node_never_sent_is_an_error_not_a_hang() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("c.kstore");
+        let mut sink = NodeSink::start(StoreWriter::create(&path).expect("created")).expect("started");
+        let base = sink.reserve(2);
+        sink.sender().expect("sender").send(base + 1, node(1, None));
+        let e = sink.finish().err().expect("node 0 is missing");
+        assert!(e.to_string().contains("came without the nodes before it"), "{e}");
+        assert!(!path.exists());
     }
 }
