@@ -251,53 +251,76 @@ fn skip(b: &[u8], mut i: usize, space: bool) -> usize {
 }
 
 impl<'a> Tokens<'a> {
-    /// The next token as the integer [`parse_i64`] reads from it (a plain one, optional sign and
-    /// at most 18 digits, read in the same pass that finds its end), or as `Err(token)` when it
-    /// is not an integer. `None` at the end of the line.
+    /// The next token as `parse` reads it, or as `Err(token)` when `parse` refuses it; `None` at
+    /// the end of the line. Where the line is ASCII, `plain` reads the number at the start of
+    /// the rest of the line in the same pass that finds the token's end: its value and length,
+    /// taken when whitespace or the end of the line follows (the whole token); otherwise, the
+    /// token is parsed whole.
     #[inline(always)]
-    pub(crate) fn next_int(&mut self) -> Option<Result<i64, &'a [u8]>> {
+    fn next_number<T>(
+        &mut self,
+        parse: fn(&[u8]) -> Option<T>,
+        plain: impl FnOnce(&'a [u8]) -> Option<(T, usize)>,
+    ) -> Option<Result<T, &'a [u8]>> {
         let b = match self {
             Self::Ascii(rest) => *rest,
-            Self::Unicode(_) => return self.next().map(|t| parse_i64(t).ok_or(t)),
+            Self::Unicode(_) => return self.next().map(|t| parse(t).ok_or(t)),
         };
         let start = skip(b, 0, true);
         if start == b.len() {
             *self = Self::Ascii(&[]);
             return None;
         }
-        let mut i = start;
-        let negative = b[i] == b'-';
-        if matches!(b[i], b'-' | b'+') {
-            i += 1;
-        }
-        let digits = i;
-        let mut v;
-        if let Some((value, n)) = leading_digits(&b[digits..]) {
-            // Up to 7 digits (indices and counts of most meshes): eight bytes at once.
-            v = value as i64;
-            i += n;
-        } else {
-            v = 0;
-            // At most 18 digits (no overflow); a longer run of digits is refused below.
-            let most = b.len().min(digits + 18);
-            while i < most {
-                let d = b[i].wrapping_sub(b'0');
-                if d > 9 {
-                    break;
-                }
-                v = v * 10 + i64::from(d);
-                i += 1;
+        if let Some((v, n)) = plain(&b[start..]) {
+            let end = start + n;
+            if end == b.len() || is_space(b[end]) {
+                *self = Self::Ascii(&b[end..]);
+                return Some(Ok(v));
             }
         }
-        if i == digits || (i < b.len() && !is_space(b[i])) {
-            // Not a plain integer: the whole token, parsed the long way.
-            let end = skip(b, i, false);
-            *self = Self::Ascii(&b[end..]);
-            let t = &b[start..end];
-            return Some(parse_i64(t).ok_or(t));
-        }
-        *self = Self::Ascii(&b[i..]);
-        Some(Ok(if negative { -v } else { v }))
+        let end = skip(b, start, false);
+        *self = Self::Ascii(&b[end..]);
+        let t = &b[start..end];
+        Some(parse(t).ok_or(t))
+    }
+
+    /// The next token as the integer [`parse_i64`] reads from it (a plain one, optional sign and
+    /// at most 18 digits, read in the same pass that finds its end), or as `Err(token)` when it
+    /// is not an integer. `None` at the end of the line.
+    #[inline(always)]
+    pub(crate) fn next_int(&mut self) -> Option<Result<i64, &'a [u8]>> {
+        self.next_number(parse_i64, |b| {
+            let negative = b[0] == b'-';
+            let digits = usize::from(matches!(b[0], b'-' | b'+'));
+            let mut i = digits;
+            let mut v;
+            if let Some((value, n)) = leading_digits(&b[digits..]) {
+                // Up to 7 digits (indices and counts of most meshes): eight bytes at once.
+                v = value as i64;
+                i += n;
+            } else {
+                v = 0;
+                // At most 18 digits (no overflow); a longer run is no plain integer.
+                let most = b.len().min(digits + 18);
+                while i < most {
+                    let d = b[i].wrapping_sub(b'0');
+                    if d > 9 {
+                        break;
+                    }
+                    v = v * 10 + i64::from(d);
+                    i += 1;
+                }
+            }
+            (i > digits).then_some((if negative { -v } else { v }, i))
+        })
+    }
+
+    /// The next token as the `f64` [`parse_f64`] reads from it, or `Err(token)` when it is not a
+    /// number. `None` at the end of the line. `fast-float2` reads the longest number at the
+    /// start of the rest of the line, which is the token when whitespace or the end follows it.
+    #[inline]
+    pub(crate) fn next_f64(&mut self) -> Option<Result<f64, &'a [u8]>> {
+        self.next_number(parse_f64, |b| fast_float2::parse_partial::<f64, _>(b).ok())
     }
 }
 
@@ -332,37 +355,6 @@ fn leading_digits(b: &[u8]) -> Option<(u64, usize)> {
     let d = ((d & 0x00ff_0000_00ff_0000) >> 16) + (d & 0x0000_00ff_0000_00ff) * 100;
     let d = ((d & 0x0000_ffff_0000_0000) >> 32) + (d & 0x0000_0000_0000_ffff) * 10000;
     Some((d, len))
-}
-
-impl<'a> Tokens<'a> {
-    /// The next token as the `f64` [`parse_f64`] reads from it, or `Err(token)` when it is not a
-    /// number. `None` at the end of the line. The number is read in the same pass that finds the
-    /// token's end where it can be (`fast-float2` reads the longest number at the start of the
-    /// rest of the line, which is the token when whitespace or the end follows it); any other
-    /// token is parsed whole, as [`parse_f64`] parses it.
-    #[inline]
-    pub(crate) fn next_f64(&mut self) -> Option<Result<f64, &'a [u8]>> {
-        let b = match self {
-            Self::Ascii(rest) => *rest,
-            Self::Unicode(_) => return self.next().map(|t| parse_f64(t).ok_or(t)),
-        };
-        let start = skip(b, 0, true);
-        if start == b.len() {
-            *self = Self::Ascii(&[]);
-            return None;
-        }
-        if let Ok((v, n)) = fast_float2::parse_partial::<f64, _>(&b[start..]) {
-            let end = start + n;
-            if end == b.len() || is_space(b[end]) {
-                *self = Self::Ascii(&b[end..]);
-                return Some(Ok(v));
-            }
-        }
-        let end = skip(b, start, false);
-        *self = Self::Ascii(&b[end..]);
-        let t = &b[start..end];
-        Some(parse_f64(t).ok_or(t))
-    }
 }
 
 /// An `f64` as `str::parse` reads it (`nan` and `inf` included), by `fast-float2` straight from
