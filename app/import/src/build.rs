@@ -1,6 +1,7 @@
 //! The out-of-core hierarchy builder (balsa12 §4).
 //!
-//! 1. [`Builder::push`] takes samples one by one: it keeps the bounding box and the samples
+//! 1. [`Builder::push`] takes samples one by one ([`Builder::push_all`] many at once: a mesh's
+//!    vertices, taken over whole when they fit): it keeps the bounding box and the samples
 //!    themselves in memory up to `chunk_points`. When the input outgrows that, a kd-tree chosen
 //!    on a seeded random sample of those samples splits space into cells of about
 //!    1/32 of half a chunk (as the input seen so far is spread), and from then on every sample

@@ -1,6 +1,6 @@
 //! Text read in blocks of whole lines: each block is parsed on a thread of its own (in pieces on
-//! the rayon pool) while the reading thread reads (and inflates) the next block and visits the
-//! block before, in order. The ASCII PLY body and OBJ files are read this way; a format says how
+//! the rayon pool) while the reading thread reads the next block (inflated ahead on a thread of
+//! its own when gzip'd: `source::ReadAhead`) and visits the block before, in order. The ASCII PLY body and OBJ files are read this way; a format says how
 //! a block parses ([`Format`]) and its reader visits the results, so errors come in file order
 //! as a line-by-line reader would give them.
 

@@ -128,13 +128,17 @@ pub fn open(path: &Path) -> std::io::Result<Box<dyn BufRead + Send>> {
 }
 
 /// A reader read on a thread of its own, a few blocks ahead of its consumer. A failure comes
-/// after the bytes read before it; the thread stops when the consumer is dropped.
+/// after the bytes read before it; the thread stops when the consumer is dropped. The end of
+/// the input is an empty block: a thread that stops without one (a panic) is an error, not an
+/// input cut short.
 struct ReadAhead {
     blocks: std::sync::mpsc::Receiver<std::io::Result<Vec<u8>>>,
     /// Blocks consumed, for the thread to fill again.
     spare: std::sync::mpsc::Sender<Vec<u8>>,
     block: Vec<u8>,
     at: usize,
+    /// The empty block came.
+    ended: bool,
 }
 
 impl ReadAhead {
@@ -153,14 +157,15 @@ impl ReadAhead {
                 block.resize(Self::BLOCK, 0);
                 let (got, failed) = crate::fill(&mut inner, &mut block);
                 block.truncate(got);
-                let end = got < Self::BLOCK || failed.is_some();
                 if got > 0 && tx.send(Ok(block)).is_err() {
                     return;
                 }
                 if let Some(e) = failed {
                     let _ = tx.send(Err(e));
+                    return;
                 }
-                if end {
+                if got < Self::BLOCK {
+                    let _ = tx.send(Ok(Vec::new()));
                     return;
                 }
             }
@@ -170,7 +175,7 @@ impl ReadAhead {
                 inner_tx.send(inner).map_or_else(
                     // The thread is gone already: read in place.
                     |e| Box::new(BufReader::with_capacity(Self::BLOCK, e.0)) as Box<dyn BufRead + Send>,
-                    |()| Box::new(Self { blocks, spare, block: Vec::new(), at: 0 }),
+                    |()| Box::new(Self { blocks, spare, block: Vec::new(), at: 0, ended: false }),
                 )
             }
             // `inner` was never handed over.
@@ -191,20 +196,17 @@ impl std::io::Read for ReadAhead {
 
 impl BufRead for ReadAhead {
     fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
-        if self.at == self.block.len() {
+        if self.at == self.block.len() && !self.ended {
             match self.blocks.recv() {
                 Ok(Ok(block)) => {
+                    self.ended = block.is_empty();
                     let used = std::mem::replace(&mut self.block, block);
                     // The thread may be done: the buffer is then dropped.
                     let _ = self.spare.send(used);
                     self.at = 0;
                 }
                 Ok(Err(e)) => return Err(e),
-                // The input ended.
-                Err(_) => {
-                    self.block.clear();
-                    self.at = 0;
-                }
+                Err(_) => return Err(std::io::Error::other("the thread reading the input stopped")),
             }
         }
         Ok(&self.block[self.at..])
@@ -435,6 +437,11 @@ pub fn read_ply(
         // Every vertex is kept until the faces are applied: room for them at once, up to 4 Mi
         // (a broken header's count takes no more; the buffer grows past that as rows come).
         let _ = buffered.points.try_reserve_exact(usize::try_from(v.count.min(1 << 22)).unwrap_or(0));
+        // And for a triangle per face (12 bytes each, kept until every vertex is read), up to 8 Mi.
+        if let Some((fi, _)) = face {
+            let faces = header.elements[fi].count.min(1 << 23);
+            let _ = buffered.tris.try_reserve_exact(usize::try_from(faces).unwrap_or(0));
+        }
     }
     let mut dropped = 0u64;
     let mut sink_err = None;
@@ -490,7 +497,8 @@ pub fn read_ply(
             && (use_faces || row.lists[li].len() < 3)
         {
             let to_row = |msg| PlyError::Row { element: "face".into(), row: ri + 1, line: None, msg };
-            // Faces after the vertices are applied as they are read.
+            // Triangles are kept as read (indices checked here when the vertices came first) and
+            // applied once every vertex is read.
             buffered.add_polygon(&row.lists[li], vi < fi).map_err(to_row)?;
             report.faces_used += 1;
         }
@@ -753,6 +761,18 @@ mod tests {
                 Ok(n) => assert!(!fails && n == len, "{len} bytes: {n} read, the failure lost"),
             }
         }
+    }
+
+    #[test]
+    fn a_reading_thread_that_panics_is_an_error_not_the_end_of_the_input() {
+        struct Panics;
+        impl Read for Panics {
+            fn read(&mut self, _: &mut [u8]) -> std::io::Result<usize> {
+                panic!("a decoder bug");
+            }
+        }
+        let e = ReadAhead::start(Panics).read_to_end(&mut Vec::new()).expect_err("no end of input");
+        assert_eq!(e.to_string(), "the thread reading the input stopped");
     }
 
     #[test]

@@ -174,13 +174,13 @@ impl StoreWriter {
     }
 }
 
-/// A node for [`NodeSink::send`].
+/// A node for [`NodeSink::send`] or [`NodeSender::send`].
 pub struct PendingNode {
     /// Spatially sorted splats.
     pub splats: Vec<Splat>,
     /// Their boxes.
     pub boxes: Vec<Aabb>,
-    /// Children (ids of nodes sent before).
+    /// Children (lower ids).
     pub children: Option<[u32; 2]>,
     /// Statistics for the index record.
     pub stats: NodeStats,
@@ -238,7 +238,15 @@ impl NodeSink {
         });
         let progress = written.clone();
         let thread = std::thread::Builder::new().name("store writer".into()).spawn(move || {
-            let result = (|| {
+            // Marks the writer stopped however it ends (a panic too), so that nobody waits on.
+            struct Stopped(std::sync::Arc<Written>);
+            impl Drop for Stopped {
+                fn drop(&mut self) {
+                    self.0.set(|s| s.1 = true);
+                }
+            }
+            let _stopped = Stopped(progress.clone());
+            (|| {
                 // Nodes that came before the ones below them.
                 let mut waiting = std::collections::BTreeMap::new();
                 for (id, node) in rx {
@@ -258,9 +266,7 @@ impl NodeSink {
                     )));
                 }
                 Ok(writer)
-            })();
-            progress.set(|s| s.1 = true);
-            result
+            })()
         })?;
         Ok(Self { next_id, tx: Some(tx), written, thread: Some(thread) })
     }
@@ -278,11 +284,10 @@ impl NodeSink {
 
     /// A sender of nodes with reserved ids; the writer's error once it stopped.
     pub fn sender(&mut self) -> std::io::Result<NodeSender> {
+        let stopped = self.written.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner).1;
         match &self.tx {
-            Some(tx) => Ok(NodeSender(tx.clone())),
-            None => {
-                Err(self.join().err().unwrap_or_else(|| std::io::Error::other("the store writer stopped")))
-            }
+            Some(tx) if !stopped => Ok(NodeSender(tx.clone())),
+            _ => Err(self.join().err().unwrap_or_else(|| std::io::Error::other("the store writer stopped"))),
         }
     }
 
@@ -368,6 +373,18 @@ mod tests {
         for order in [[2, 1, 0], [1, 2, 0], [0, 2, 1]] {
             assert!(store(dir.path(), "b.kstore", order).expect("written") == in_order, "{order:?}");
         }
+    }
+
+    #[test]
+    fn a_writer_that_panics_is_an_error_not_a_hang() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let mut sink = NodeSink::start(StoreWriter::create(&dir.path().join("d.kstore")).expect("created"))
+            .expect("started");
+        // Children that do not exist: the writer panics on them.
+        let base = sink.reserve(2);
+        sink.sender().expect("sender").send(base, node(0, Some([98, 99])));
+        let e = sink.wait_written(base + 1).err().expect("the writer stopped");
+        assert_eq!(e.to_string(), "the store writer panicked");
     }
 
     #[test]
