@@ -383,7 +383,7 @@ mod tests {
         // Children that do not exist: the writer panics on them.
         let base = sink.reserve(2);
         sink.sender().expect("sender").send(base, node(0, Some([98, 99])));
-        let e = sink.wait_written(base + 1).err().expect("the writer stopped");
+        let e = sink.wait_written(base + 1).expect_err("the writer stopped");
         assert_eq!(e.to_string(), "the store writer panicked");
     }
 
