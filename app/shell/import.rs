@@ -87,13 +87,13 @@ impl source::Sink for Feed<'_> {
         if self.read.is_multiple_of(65536) {
             self.pb.set_position(self.read);
         }
-        self.builder.push(p).map_err(|e| e.to_string())
+        source::Sink::point(self.builder, p)
     }
 
     fn points(&mut self, points: Vec<source::InputPoint>) -> Result<(), String> {
         self.read += points.len() as u64;
         self.pb.set_position(self.read);
-        self.builder.push_all(points).map_err(|e| e.to_string())
+        source::Sink::points(self.builder, points)
     }
 }
 

@@ -350,15 +350,7 @@ impl Builder {
 
     /// Adds a sample (its position must be finite; the readers guarantee it).
     pub fn push(&mut self, p: InputPoint) -> Result<(), BuildError> {
-        if !p.pos.is_finite() {
-            return Err(BuildError::Degenerate(format!(
-                "sample {} has a non-finite position",
-                self.count + 1
-            )));
-        }
-        self.count += 1;
-        self.min = self.min.min(p.pos);
-        self.max = self.max.max(p.pos);
+        self.count_in(p.pos)?;
         match &mut self.spill {
             Spill::Memory(v) => {
                 v.push(p);
@@ -385,24 +377,26 @@ impl Builder {
     pub fn push_all(&mut self, points: Vec<InputPoint>) -> Result<(), BuildError> {
         match &mut self.spill {
             Spill::Memory(v) if v.is_empty() && points.len() <= self.params.chunk_points => {
-                let (mut min, mut max) = (self.min, self.max);
-                for (i, p) in points.iter().enumerate() {
-                    if !p.pos.is_finite() {
-                        return Err(BuildError::Degenerate(format!(
-                            "sample {} has a non-finite position",
-                            self.count + i as u64 + 1
-                        )));
-                    }
-                    min = min.min(p.pos);
-                    max = max.max(p.pos);
-                }
-                (self.min, self.max) = (min, max);
-                self.count += points.len() as u64;
-                *v = points;
+                points.iter().try_for_each(|p| self.count_in(p.pos))?;
+                self.spill = Spill::Memory(points);
                 Ok(())
             }
             _ => points.into_iter().try_for_each(|p| self.push(p)),
         }
+    }
+
+    /// Counts a sample in and widens the bounds to it (its position must be finite).
+    fn count_in(&mut self, pos: DVec3) -> Result<(), BuildError> {
+        if !pos.is_finite() {
+            return Err(BuildError::Degenerate(format!(
+                "sample {} has a non-finite position",
+                self.count + 1
+            )));
+        }
+        self.count += 1;
+        self.min = self.min.min(pos);
+        self.max = self.max.max(pos);
+        Ok(())
     }
 
     /// Samples pushed so far.
@@ -853,18 +847,7 @@ impl Ctx<'_> {
         let before = self.sink.next_id();
         let base = self.sink.reserve(subtree_nodes(work.len(), self.params.node_points));
         let sender = self.sink.sender()?;
-        let emit = |id: u32, node: NodeOut| {
-            sender.send(
-                id,
-                PendingNode {
-                    children: node.children,
-                    stats: NodeStats { spacing: node.spacing, data_crc: node.data_crc },
-                    splats: node.splats,
-                    boxes: node.boxes,
-                },
-            );
-        };
-        let built = build_subtree(work, h2, &self.params, base, &emit);
+        let built = build_subtree(work, h2, &self.params, base, &|id, node| sender.send(id, node.into()));
         // The nodes of the regions before this one are written before the next is built: at
         // most this region's nodes wait in memory.
         self.sink.wait_written(before)?;
@@ -875,15 +858,11 @@ impl Ctx<'_> {
 
     /// Makes the parent of two subtrees by simplifying the union of their samples.
     fn join(&mut self, a: Sub, b: Sub) -> Result<Sub, BuildError> {
-        let parent = parent_of(a.samples, a.spacing, b.samples, b.spacing, &self.params);
-        let node = PendingNode {
-            splats: parent.splats,
-            boxes: parent.boxes,
-            children: Some([a.id, b.id]),
-            stats: NodeStats { spacing: parent.spacing, data_crc: parent.data_crc },
-        };
-        let id = self.sink.send(node)?;
-        Ok(Sub { id, samples: parent.stored, spacing: parent.spacing })
+        let mut parent = parent_of(a.samples, a.spacing, b.samples, b.spacing, &self.params);
+        parent.children = Some([a.id, b.id]);
+        let (samples, spacing) = (std::mem::take(&mut parent.stored), parent.spacing);
+        let id = self.sink.send(parent.into())?;
+        Ok(Sub { id, samples, spacing })
     }
 }
 
@@ -899,6 +878,17 @@ struct NodeOut {
     /// The samples as stored (quantised normals): what the parent is built from (balsa12 §4);
     /// taken by the parent's builder.
     stored: Vec<Work>,
+}
+
+impl From<NodeOut> for PendingNode {
+    fn from(n: NodeOut) -> Self {
+        Self {
+            splats: n.splats,
+            boxes: n.boxes,
+            children: n.children,
+            stats: NodeStats { spacing: n.spacing, data_crc: n.data_crc },
+        }
+    }
 }
 
 /// A subtree built: its root's id and samples.

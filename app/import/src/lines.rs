@@ -262,26 +262,17 @@ impl<'a> Tokens<'a> {
         parse: fn(&[u8]) -> Option<T>,
         plain: impl FnOnce(&'a [u8]) -> Option<(T, usize)>,
     ) -> Option<Result<T, &'a [u8]>> {
-        let b = match self {
-            Self::Ascii(rest) => *rest,
-            Self::Unicode(_) => return self.next().map(|t| parse(t).ok_or(t)),
-        };
-        let start = skip(b, 0, true);
-        if start == b.len() {
-            *self = Self::Ascii(&[]);
-            return None;
-        }
-        if let Some((v, n)) = plain(&b[start..]) {
-            let end = start + n;
-            if end == b.len() || is_space(b[end]) {
-                *self = Self::Ascii(&b[end..]);
+        if let Self::Ascii(b) = *self {
+            let start = skip(b, 0, true);
+            if start < b.len()
+                && let Some((v, n)) = plain(&b[start..])
+                && (start + n == b.len() || is_space(b[start + n]))
+            {
+                *self = Self::Ascii(&b[start + n..]);
                 return Some(Ok(v));
             }
         }
-        let end = skip(b, start, false);
-        *self = Self::Ascii(&b[end..]);
-        let t = &b[start..end];
-        Some(parse(t).ok_or(t))
+        self.next().map(|t| parse(t).ok_or(t))
     }
 
     /// The next token as the integer [`parse_i64`] reads from it (a plain one, optional sign and

@@ -252,23 +252,17 @@ impl Buffered {
     /// checked against the vertices here when every vertex is read already (`vertices_read`),
     /// else in [`Buffered::finish`].
     fn add_polygon(&mut self, idx: &[f64], vertices_read: bool) -> Result<(), String> {
-        // A triangle whose indices are all in range (most faces of most meshes) takes one test.
-        if let [a, b, c] = *idx {
-            let n = if vertices_read { self.points.len() as f64 } else { f64::from(u32::MAX) };
-            let below = n.min(f64::from(u32::MAX));
-            if a >= 0.0 && b >= 0.0 && c >= 0.0 && a < below && b < below && c < below {
-                self.tris.push([a as u32, b as u32, c as u32]);
-                return Ok(());
-            }
-        }
         if idx.len() < 3 {
             return Err(format!("polygon with {} vertex index(es); a face needs at least 3", idx.len()));
         }
-        if let Some(bad) = idx.iter().find(|&&i| !(0.0..f64::from(u32::MAX)).contains(&i)) {
-            return Err(format!("vertex index {bad} is out of range"));
-        }
+        // One test per index; which one is wrong, and how, only when one is.
         let n = self.points.len();
-        if vertices_read && let Some(bad) = idx.iter().find(|&&i| i as usize >= n) {
+        let below = if vertices_read { (n as f64).min(f64::from(u32::MAX)) } else { f64::from(u32::MAX) };
+        if !idx.iter().all(|i| (0.0..below).contains(i)) {
+            if let Some(bad) = idx.iter().find(|&&i| !(0.0..f64::from(u32::MAX)).contains(&i)) {
+                return Err(format!("vertex index {bad} is out of range"));
+            }
+            let bad = idx.iter().find(|&&i| i as usize >= n).copied().unwrap_or(f64::NAN);
             return Err(format!(
                 "vertex index {bad} is out of range: the file has {n} vertices (indices start at 0)"
             ));

@@ -208,9 +208,12 @@ struct Written {
 }
 
 impl Written {
+    fn lock(&self) -> std::sync::MutexGuard<'_, (u32, bool)> {
+        self.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
     fn set(&self, f: impl FnOnce(&mut (u32, bool))) {
-        let mut state = self.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        f(&mut state);
+        f(&mut self.lock());
         self.changed.notify_all();
     }
 }
@@ -284,10 +287,10 @@ impl NodeSink {
 
     /// A sender of nodes with reserved ids; the writer's error once it stopped.
     pub fn sender(&mut self) -> std::io::Result<NodeSender> {
-        let stopped = self.written.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner).1;
+        let stopped = self.written.lock().1;
         match &self.tx {
             Some(tx) if !stopped => Ok(NodeSender(tx.clone())),
-            _ => Err(self.join().err().unwrap_or_else(|| std::io::Error::other("the store writer stopped"))),
+            _ => Err(self.stopped()),
         }
     }
 
@@ -301,7 +304,7 @@ impl NodeSink {
 
     /// Waits until every node below `id` is written; the writer's error if it stopped before.
     pub fn wait_written(&mut self, id: u32) -> std::io::Result<()> {
-        let mut state = self.written.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let mut state = self.written.lock();
         while state.0 < id && !state.1 {
             state = self.written.changed.wait(state).unwrap_or_else(std::sync::PoisonError::into_inner);
         }
@@ -309,7 +312,12 @@ impl NodeSink {
             return Ok(());
         }
         drop(state);
-        Err(self.join().err().unwrap_or_else(|| std::io::Error::other("the store writer stopped")))
+        Err(self.stopped())
+    }
+
+    /// Why the writer stopped (its error), once it did.
+    fn stopped(&mut self) -> std::io::Error {
+        self.join().err().unwrap_or_else(|| std::io::Error::other("the store writer stopped"))
     }
 
     /// Waits for every node to be written and returns the writer.
