@@ -54,6 +54,11 @@ pub fn small_nodes() -> BuildParams {
 pub fn transform(points: &[InputPoint], scale: f64, offset: DVec3) -> Vec<InputPoint> {
     points
         .iter()
-        .map(|p| InputPoint { pos: p.pos * scale + offset, radius: p.radius * scale as f32, ..*p })
+        .map(|p| InputPoint {
+            pos: p.pos * scale + offset,
+            radius: p.radius * scale as f32,
+            spacing: p.spacing * scale as f32,
+            ..*p
+        })
         .collect()
 }

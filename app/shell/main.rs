@@ -104,9 +104,10 @@ enum Command {
         /// Target samples per node (M).
         #[arg(long, default_value_t = kiosk_import::BuildParams::default().node_points)]
         node_points: usize,
-        /// Speed against accuracy of the splat radii: samples that come with a normal search
-        /// their nearest neighbours for a spacing one in N per group of 8–15 neighbouring samples;
-        /// the others take the spacing of the nearest that did (1: every sample; see README).
+        /// Speed against accuracy of the splat radii: samples that come with a normal but no
+        /// spacing (point clouds; a mesh's faces give theirs) search their nearest neighbours
+        /// for a spacing one in N per group of 8–15 neighbouring samples; the others take the
+        /// spacing of the nearest that did (1: every sample; see README).
         #[arg(long, default_value_t = kiosk_import::BuildParams::default().spacing_stride as u32,
               value_parser = clap::value_parser!(u32).range(1..=16))]
         spacing_stride: u32,

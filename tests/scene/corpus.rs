@@ -307,6 +307,42 @@ fn dropped_vertices_keep_face_indices_right() {
     );
 }
 
+/// A mesh's vertex covers a third of the area of its triangles: its spacing is the square root
+/// of that, so the spacings of a mesh add up to its area; a vertex in no triangle brings none.
+#[test]
+fn mesh_vertices_bring_the_area_they_cover_as_their_spacing() {
+    // A 4 × 4 grid of step 0.5 in z = 0, two triangles per square, and a vertex in no face.
+    let mut ply = String::from(
+        "ply\nformat ascii 1.0\nelement vertex 17\nproperty float x\nproperty float y\nproperty float z\n\
+         element face 18\nproperty list uchar int vertex_indices\nend_header\n",
+    );
+    for j in 0..4 {
+        for i in 0..4 {
+            ply += &format!("{} {} 0\n", f64::from(i) * 0.5, f64::from(j) * 0.5);
+        }
+    }
+    ply += "9 9 9\n";
+    for j in 0..3 {
+        for i in 0..3 {
+            let v = j * 4 + i;
+            ply += &format!("3 {v} {} {}\n3 {v} {} {}\n", v + 1, v + 5, v + 5, v + 4);
+        }
+    }
+    let (pts, rep) = source::read_ply_bytes(ply.as_bytes(), &ReadOptions::default()).expect("a mesh");
+    assert_eq!((pts.len(), rep.faces_used), (17, 18));
+    let spacing = |i: usize, j: usize| f64::from(pts[j * 4 + i].spacing);
+    // An inner vertex is in 6 triangles of 0.125 m²: it covers 0.25 m², a 0.5 m square.
+    for (i, j) in [(1, 1), (2, 1), (1, 2), (2, 2)] {
+        assert!((spacing(i, j) - 0.5).abs() < 1e-6, "({i}, {j}): {}", spacing(i, j));
+    }
+    // Corner (0, 0) is in 2 triangles, corner (3, 0) in 1.
+    assert!((spacing(0, 0) - (0.25f64 / 3.0).sqrt()).abs() < 1e-6, "{}", spacing(0, 0));
+    assert!((spacing(3, 0) - (0.125f64 / 3.0).sqrt()).abs() < 1e-6, "{}", spacing(3, 0));
+    let area: f64 = pts.iter().map(|p| f64::from(p.spacing).powi(2)).sum();
+    assert!((area - 2.25).abs() < 1e-5, "the grid covers 2.25 m², its vertices {area}");
+    assert_eq!((pts[16].spacing, pts[16].radius), (0.0, 0.0), "{:?}", pts[16]);
+}
+
 #[test]
 fn truncated_binary_body_names_the_row() {
     let mut ply = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n".to_vec();

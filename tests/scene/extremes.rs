@@ -69,7 +69,7 @@ fn georeferenced_and_tiny_at_once() {
 }
 
 fn point(x: f64, y: f64, z: f64) -> InputPoint {
-    InputPoint { pos: DVec3::new(x, y, z), normal: Vec3::ZERO, color: [0; 4], radius: 0.0 }
+    InputPoint { pos: DVec3::new(x, y, z), normal: Vec3::ZERO, color: [0; 4], radius: 0.0, spacing: 0.0 }
 }
 
 #[test]
@@ -133,6 +133,48 @@ fn coplanar_points_get_the_plane_normal() {
         assert!(b.store.splats(*id).iter().all(|s| s.normal().z.abs() > 0.999));
     }
     assert_eq!(b.summary.leaf_points, 10_000);
+}
+
+/// Samples that bring a spacing (a mesh's vertices) keep it; the others have theirs estimated
+/// from their neighbours, also where both kinds are mixed.
+#[test]
+fn spacings_brought_are_kept_and_the_missing_ones_estimated() {
+    // A plane grid of step 0.01 m (estimated spacing about 0.01) whose even samples say 0.004.
+    let pts: Vec<InputPoint> = (0..10_000)
+        .map(|i| {
+            let p = point((i % 100) as f64 * 0.01, (i / 100) as f64 * 0.01, 7.0);
+            InputPoint { normal: Vec3::Z, spacing: if i % 2 == 0 { 0.004 } else { 0.0 }, ..p }
+        })
+        .collect();
+    let b = common::build(&pts, small_nodes());
+    let factor = kiosk_import::BuildParams::default().radius_factor;
+    let (mut brought, mut estimated) = (0, 0);
+    for id in Cut::leaves(&b.store).nodes() {
+        for s in b.store.splats(*id) {
+            let p = b.store.to_model(s.position());
+            let (ix, iy) = ((p.x / 0.01).round() as usize, (p.y / 0.01).round() as usize);
+            let h = s.radius / factor;
+            if ix % 2 == 0 {
+                assert!((h - 0.004).abs() < 1e-6, "sample ({ix}, {iy}): spacing {h}, brought 0.004");
+                brought += 1;
+            } else {
+                // About the step inside; up to twice it near the border, whose neighbours are
+                // all on one side.
+                let inside = (3..97).contains(&ix) && (3..97).contains(&iy);
+                let range = if inside { 0.007..0.014 } else { 0.007..0.02 };
+                assert!(range.contains(&h), "sample ({ix}, {iy}): estimated spacing {h}, grid step 0.01");
+                estimated += 1;
+            }
+        }
+    }
+    assert_eq!((brought, estimated), (5000, 5000));
+    // Every sample bringing its spacing: nothing to estimate, and the nodes' spacings are theirs.
+    let all: Vec<InputPoint> = pts.iter().map(|p| InputPoint { spacing: 0.004, ..*p }).collect();
+    let b = common::build(&all, small_nodes());
+    for id in Cut::leaves(&b.store).nodes() {
+        assert!((b.store.node(*id).spacing - 0.004).abs() < 1e-6, "{}", b.store.node(*id).spacing);
+        assert!(b.store.splats(*id).iter().all(|s| (s.radius - factor * 0.004).abs() < 1e-6));
+    }
 }
 
 #[test]

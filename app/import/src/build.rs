@@ -41,9 +41,10 @@ pub struct BuildParams {
     pub chunk_points: usize,
     /// Neighbours for normal and spacing estimation.
     pub knn: usize,
-    /// Samples with a normal of their own search their neighbours for a spacing one in this
-    /// many per leaf of 8–15 neighbouring samples; the others take the spacing of the nearest
-    /// that did (1: every sample searches; see [`estimate::estimate`]).
+    /// Samples with a normal of their own and no spacing (a point cloud's; a mesh's vertices
+    /// bring theirs from the faces) search their neighbours for a spacing one in this many per
+    /// leaf of 8–15 neighbouring samples; the others take the spacing of the nearest that did
+    /// (1: every sample searches; see [`estimate::estimate`]).
     pub spacing_stride: usize,
     /// Splat radius = `radius_factor` × local spacing.
     pub radius_factor: f32,
@@ -148,7 +149,7 @@ struct RawRec {
     normal: [f32; 3],
     color: [u8; 4],
     radius: f32,
-    reserved: u32,
+    spacing: f32,
 }
 
 impl From<InputPoint> for RawRec {
@@ -158,7 +159,7 @@ impl From<InputPoint> for RawRec {
             normal: p.normal.to_array(),
             color: p.color,
             radius: p.radius,
-            reserved: 0,
+            spacing: p.spacing,
         }
     }
 }
@@ -167,8 +168,8 @@ impl From<InputPoint> for RawRec {
 trait Record: Copy + Send + Sync + 'static {
     fn position(&self) -> DVec3;
     fn spilled(&self) -> RawRec;
-    /// Normal, colour and radius.
-    fn attributes(&self) -> (Vec3, [u8; 4], f32);
+    /// Normal, colour, radius and spacing.
+    fn attributes(&self) -> (Vec3, [u8; 4], f32, f32);
 }
 
 impl Record for InputPoint {
@@ -181,8 +182,8 @@ impl Record for InputPoint {
         RawRec::from(*self)
     }
     #[inline]
-    fn attributes(&self) -> (Vec3, [u8; 4], f32) {
-        (self.normal, self.color, self.radius)
+    fn attributes(&self) -> (Vec3, [u8; 4], f32, f32) {
+        (self.normal, self.color, self.radius, self.spacing)
     }
 }
 
@@ -196,8 +197,8 @@ impl Record for RawRec {
         *self
     }
     #[inline]
-    fn attributes(&self) -> (Vec3, [u8; 4], f32) {
-        (Vec3::from_array(self.normal), self.color, self.radius)
+    fn attributes(&self) -> (Vec3, [u8; 4], f32, f32) {
+        (Vec3::from_array(self.normal), self.color, self.radius, self.spacing)
     }
 }
 
@@ -701,13 +702,29 @@ struct Regions {
     back: std::sync::mpsc::Sender<Vec<RawRec>>,
 }
 
+/// What a sample of a region brings besides its position: as read, zero where unknown.
+#[derive(Clone, Copy, Debug)]
+struct Attrs {
+    normal: Vec3,
+    color: [u8; 4],
+    /// The radius it must cover at least.
+    min_radius: f32,
+    spacing: f32,
+}
+
+/// Whether `h` is a spacing (positive and finite; 0 stands for unknown).
+#[inline]
+fn known_spacing(h: f32) -> bool {
+    h > 0.0 && h.is_finite()
+}
+
 /// The buffers of [`Ctx::region`], kept from one region to the next (their pages stay mapped).
 #[derive(Default)]
 struct Scratch {
-    pts: Vec<(Vec3, Vec3, [u8; 4], f32)>,
+    pts: Vec<(Vec3, Attrs)>,
     keyed: Vec<Keyed>,
     positions: Vec<Vec3>,
-    sorted: Vec<(Vec3, [u8; 4], f32)>,
+    sorted: Vec<Attrs>,
     work: Vec<Work>,
     h2: Vec<f32>,
 }
@@ -756,27 +773,29 @@ impl Ctx<'_> {
         let pts = &mut s.pts;
         recs.par_iter()
             .map(|r| {
-                let (normal, color, radius) = r.attributes();
-                ((r.position() - origin).as_vec3(), normal, color, radius)
+                let (normal, color, min_radius, spacing) = r.attributes();
+                ((r.position() - origin).as_vec3(), Attrs { normal, color, min_radius, spacing })
             })
             .collect_into_vec(pts);
-        // Merge duplicates (identical stored positions): average their normals and colours. A
-        // group of duplicates becomes its first sample; the others are dropped. Samples keep
-        // their input order.
+        // Merge duplicates (identical stored positions): average their normals and colours, keep
+        // the largest radius and the area they cover together. A group of duplicates becomes its
+        // first sample; the others are dropped. Samples keep their input order.
         let mut groups = Vec::new();
         duplicate_groups(pts.len(), |i| pts[i].0, position_hash, |run| groups.push(run.to_vec()));
         let mut dropped = vec![false; pts.len()];
         for run in &groups {
-            let nrm = run.iter().fold(Vec3::ZERO, |a, &k| a + pts[k].1).normalize_or_zero();
+            let of = |k: usize| pts[k].1;
+            let normal = run.iter().fold(Vec3::ZERO, |a, &k| a + of(k).normal).normalize_or_zero();
             let mut c = [0u32; 4];
             for &k in run {
-                for (acc, v) in c.iter_mut().zip(pts[k].2) {
+                for (acc, v) in c.iter_mut().zip(of(k).color) {
                     *acc += u32::from(v);
                 }
             }
             let n = run.len() as u32;
-            let r = run.iter().fold(0.0f32, |a, &k| a.max(pts[k].3));
-            pts[run[0]] = (pts[run[0]].0, nrm, c.map(|x| (x / n) as u8), r);
+            let min_radius = run.iter().fold(0.0f32, |a, &k| a.max(of(k).min_radius));
+            let spacing = run.iter().map(|&k| of(k).spacing.powi(2)).sum::<f32>().sqrt();
+            pts[run[0]].1 = Attrs { normal, color: c.map(|x| (x / n) as u8), min_radius, spacing };
             for &k in &run[1..] {
                 dropped[k] = true;
             }
@@ -805,32 +824,35 @@ impl Ctx<'_> {
         keyed.par_iter().map(|k| k.pos).collect_into_vec(positions);
         // The rest of each sample follows its position (one gather).
         let sorted = &mut s.sorted;
-        keyed
-            .par_iter()
-            .map(|k| {
-                let (_, nrm, color, min_radius) = merged[k.idx as usize];
-                (nrm, color, min_radius)
-            })
-            .collect_into_vec(sorted);
+        keyed.par_iter().map(|k| merged[k.idx as usize].1).collect_into_vec(sorted);
         self.timings.order += lap(&mut clock);
-        let boxes = boxtree::build_boxes(positions);
-        let need_normal = |k: usize| sorted[k].0 == Vec3::ZERO;
-        let est =
-            estimate::estimate(positions, &boxes, self.params.knn, self.params.spacing_stride, &need_normal)
-                .ok_or_else(|| BuildError::Degenerate("fewer than 2 distinct points".into()))?;
-        drop(boxes);
+        // Normals and spacings that the input did not bring (a mesh brings both from its faces).
+        let need_normal = |k: usize| sorted[k].normal == Vec3::ZERO;
+        let need_spacing = |k: usize| !known_spacing(sorted[k].spacing);
+        let est = if (0..sorted.len()).into_par_iter().any(|k| need_normal(k) || need_spacing(k)) {
+            let boxes = boxtree::build_boxes(positions);
+            let (k, stride) = (self.params.knn, self.params.spacing_stride);
+            estimate::estimate(positions, &boxes, k, stride, &need_normal, &need_spacing)
+                .ok_or_else(|| BuildError::Degenerate("fewer than 2 distinct points".into()))?
+        } else {
+            Vec::new()
+        };
         self.timings.estimate += lap(&mut clock);
         let radius_factor = self.params.radius_factor;
+        let estimated =
+            |k: usize| est.get(k).copied().unwrap_or(Estimate { normal: Vec3::ZERO, spacing: 0.0 });
         positions
             .par_iter()
             .zip(&*sorted)
-            .zip(&est)
-            .map(|((&pos, &(nrm, color, min_radius)), &Estimate { normal, spacing })| {
-                let n = if nrm == Vec3::ZERO { normal } else { nrm };
+            .enumerate()
+            .map(|(k, (&pos, a))| {
+                let e = estimated(k);
+                let normal = if a.normal == Vec3::ZERO { e.normal } else { a.normal };
+                let spacing = if known_spacing(a.spacing) { a.spacing } else { e.spacing };
                 // A lone point far from the rest still gets a finite, positive radius.
-                let h = if spacing > 0.0 && spacing.is_finite() { spacing } else { f32::MIN_POSITIVE };
-                let radius = (radius_factor * h).max(min_radius);
-                (Work { pos, normal: n, radius, color }, h * h)
+                let h = if known_spacing(spacing) { spacing } else { f32::MIN_POSITIVE };
+                let radius = (radius_factor * h).max(a.min_radius);
+                (Work { pos, normal, radius, color: a.color }, h * h)
             })
             .unzip_into_vecs(&mut s.work, &mut s.h2);
         drop(est);
@@ -1377,6 +1399,7 @@ mod tests {
                     normal: Vec3::ZERO,
                     color: [0; 4],
                     radius: 0.0,
+                    spacing: 0.0,
                 })
             })
             .find_map(Result::err);
@@ -1390,7 +1413,7 @@ mod tests {
         let dir = tempfile::tempdir()?;
         let mut b = Builder::new(params, dir.path())?;
         for pos in points {
-            b.push(InputPoint { pos, normal: Vec3::Z, color: [0; 4], radius: 0.0 })?;
+            b.push(InputPoint { pos, normal: Vec3::Z, color: [0; 4], radius: 0.0, spacing: 0.0 })?;
         }
         b.finish(&dir.path().join("m.kstore"), &mut |_| {})
     }
@@ -1425,6 +1448,7 @@ mod tests {
                 normal: Vec3::Z,
                 color: [rng.random(), 7, 9, 255],
                 radius: rng.random::<f32>() * 0.01,
+                spacing: 0.0,
             })
             .collect();
         let dir = tempfile::tempdir().expect("temp dir");
@@ -1474,7 +1498,8 @@ mod tests {
             pool.install(|| {
                 let mut b = Builder::new(params, dir.path()).expect("valid settings");
                 for &pos in &points {
-                    b.push(InputPoint { pos, normal: Vec3::Z, color: [0; 4], radius: 0.0 }).expect("pushed");
+                    b.push(InputPoint { pos, normal: Vec3::Z, color: [0; 4], radius: 0.0, spacing: 0.0 })
+                        .expect("pushed");
                 }
                 let s = b.finish(&path, &mut |_| {}).expect("builds");
                 assert!(s.chunks >= 2, "{} regions", s.chunks);

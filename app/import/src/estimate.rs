@@ -6,6 +6,9 @@
 //! - spacing h = d_k √(π / k), the side of the area each sample covers when k neighbours fill
 //!   a disc of radius d_k (the distance to the k-th neighbour);
 //! - radius = `radius_factor` × h (0.8 covers a square grid of step h, whose worst gap is h/√2).
+//!
+//! Only what the input lacks is estimated: a mesh's vertices bring their normals and spacings
+//! (the same side of the area each covers, from the faces: `source::apply_triangles`).
 
 use glam::{Mat3, Vec3};
 use kiosk_core::scene::boxtree::{self, PathStep};
@@ -114,15 +117,19 @@ pub struct Estimate {
 /// Most neighbours [`estimate`] can use.
 pub const MAX_K: usize = 32;
 
-/// Estimates spacing, and the normal where `need_normal` says so (others get zero), for every
-/// point of `positions` (spatially sorted, with `boxes` from [`boxtree::build_boxes`]) from its
-/// `k` nearest neighbours (clamped to 2..=[`MAX_K`]). `None` when there are fewer than two
+/// Estimates spacing, and the normal where `need_normal` says so (others get zero), for the
+/// points of `positions` (spatially sorted, with `boxes` from [`boxtree::build_boxes`]) from
+/// their `k` nearest neighbours (clamped to 2..=[`MAX_K`]). `None` when there are fewer than two
 /// distinct points.
 ///
-/// `stride` trades accuracy for speed: in every leaf of the implicit hierarchy (fewer than
-/// [`boxtree::LEAF_POINTS`] neighbouring points, at least half as many), only every `stride`-th
-/// point searches its neighbours, and every point that needs a normal; the others take the
-/// spacing of the nearest point of their leaf that did. 1 searches for every point.
+/// Only the leaves of the implicit hierarchy (fewer than [`boxtree::LEAF_POINTS`] neighbouring
+/// points, at least half as many) that hold a point that needs a normal or a spacing
+/// (`need_spacing`; a mesh's vertices bring theirs) are estimated: the points of the others get
+/// zero normals and spacings.
+///
+/// `stride` trades accuracy for speed: in every leaf estimated, only every `stride`-th point
+/// searches its neighbours, and every point that needs a normal; the others take the spacing of
+/// the nearest point of their leaf that did. 1 searches for every point.
 ///
 /// The search is exact and batched by leaf of the implicit hierarchy, in the order of the
 /// points: each point first tries a ball a little larger than the k-nearest balls of the leaf
@@ -134,6 +141,7 @@ pub fn estimate(
     k: usize,
     stride: usize,
     need_normal: &(dyn Fn(usize) -> bool + Sync),
+    need_spacing: &(dyn Fn(usize) -> bool + Sync),
 ) -> Option<Vec<Estimate>> {
     if positions.len() < 2 {
         return None;
@@ -142,7 +150,7 @@ pub fn estimate(
     let centroid = positions.iter().fold(Vec3::ZERO, |a, p| a + *p) / positions.len() as f32;
     let soa = Soa::new(positions);
     let search = LeafSearch { positions, soa: &soa, boxes, k: k + 1 };
-    let job = Job { search, centroid, need_normal, stride: stride.max(1) };
+    let job = Job { search, centroid, need_normal, need_spacing, stride: stride.max(1) };
     let mut out = vec![Estimate { normal: Vec3::ZERO, spacing: 0.0 }; positions.len()];
     let root = PathStep::root(positions.len());
     job.descend(root, &mut Vec::with_capacity(64), &mut Scratch::default(), &mut out);
@@ -156,6 +164,7 @@ struct Job<'a> {
     search: LeafSearch<'a>,
     centroid: Vec3,
     need_normal: &'a (dyn Fn(usize) -> bool + Sync),
+    need_spacing: &'a (dyn Fn(usize) -> bool + Sync),
     stride: usize,
 }
 
@@ -166,9 +175,14 @@ impl Job<'_> {
         if step.depth_left == 0 {
             let mut best = [TopK::new(self.search.k); boxtree::LEAF_POINTS];
             let best = &mut best[..step.hi - step.lo];
-            let normals = (step.lo..step.hi)
-                .enumerate()
-                .fold(0u32, |m, (i, idx)| m | u32::from((self.need_normal)(idx)) << i);
+            let mask = |need: &dyn Fn(usize) -> bool| {
+                (step.lo..step.hi).enumerate().fold(0u32, |m, (i, idx)| m | u32::from(need(idx)) << i)
+            };
+            let normals = mask(self.need_normal);
+            if normals == 0 && mask(self.need_spacing) == 0 {
+                path.pop();
+                return;
+            }
             let searched = (0..best.len()).step_by(self.stride).fold(normals, |m, i| m | 1 << i);
             self.search.leaf(path, searched, normals, scratch, best);
             for (i, (o, b)) in out.iter_mut().zip(best.iter()).enumerate() {
@@ -560,9 +574,9 @@ mod tests {
             .collect();
         let boxes = sorted_tree(&mut pts);
         let need = |i: usize| i % 7 == 3;
-        let exact = estimate(&pts, &boxes, 12, 1, &need).expect("enough points");
+        let exact = estimate(&pts, &boxes, 12, 1, &need, &|_| true).expect("enough points");
         for stride in [2usize, 4, 8, 16] {
-            let est = estimate(&pts, &boxes, 12, stride, &need).expect("enough points");
+            let est = estimate(&pts, &boxes, 12, stride, &need, &|_| true).expect("enough points");
             let (mut searched, mut shared) = (0, 0);
             for path in boxtree::leaf_paths(pts.len()) {
                 let leaf = path[path.len() - 1];
@@ -600,7 +614,7 @@ mod tests {
         let mut pts: Vec<Vec3> =
             (0..2500).map(|i| Vec3::new((i % 50) as f32 * 0.01, (i / 50) as f32 * 0.01, 0.0)).collect();
         let boxes = sorted_tree(&mut pts);
-        let est = estimate(&pts, &boxes, 12, 1, &|_| true).expect("enough points");
+        let est = estimate(&pts, &boxes, 12, 1, &|_| true, &|_| true).expect("enough points");
         let interior: Vec<f32> = pts
             .iter()
             .zip(&est)

@@ -23,6 +23,9 @@ pub struct InputPoint {
     pub color: [u8; 4],
     /// Radius this sample must cover at least (from the mesh's faces), or 0 when unknown.
     pub radius: f32,
+    /// Side of the area this sample covers (the square root of a third of its triangles' area,
+    /// from the mesh's faces), or 0 when unknown (then estimated from its neighbours).
+    pub spacing: f32,
 }
 
 /// Options of the readers.
@@ -244,7 +247,7 @@ impl Buffered {
     /// indices stay right; it is never passed on, and its triangles give nothing to the others.
     fn push_dropped(&mut self, pos: DVec3) {
         debug_assert!(!pos.is_finite());
-        self.points.push(InputPoint { pos, normal: Vec3::ZERO, color: [0; 4], radius: 0.0 });
+        self.points.push(InputPoint { pos, normal: Vec3::ZERO, color: [0; 4], radius: 0.0, spacing: 0.0 });
     }
 
     /// Takes the triangles (a fan) of a polygon, applied in [`Buffered::finish`]. A polygon with
@@ -292,8 +295,10 @@ impl Buffered {
 }
 
 /// Gives every vertex the normalised sum of its triangles' area-weighted normals (where it has
-/// no normal of its own) and, as its radius, the largest of their circumradii; a vertex in no
-/// triangle gets radius 0. Every index must be below `points.len()`.
+/// no normal of its own), as its radius the largest of their circumradii, and as its spacing
+/// the square root of a third of their area (each triangle's area shared by its three
+/// vertices: the area the vertex covers); a vertex in no triangle gets radius and spacing 0.
+/// Every index must be below `points.len()`.
 ///
 /// In parallel, deterministically: the vertices are split into one range per thread of the
 /// pool, and each range takes the triangles that touch it in file order (a triangle across two
@@ -303,21 +308,25 @@ fn apply_triangles(points: &mut [InputPoint], tris: &[[u32; 3]]) {
     use rayon::prelude::*;
     let per = points.len().div_ceil(rayon::current_num_threads().max(1)).max(1);
     let all: &[InputPoint] = points;
-    let sums: Vec<Vec<(DVec3, f64)>> = (0..all.len().div_ceil(per))
+    let sums: Vec<Vec<(DVec3, f64, f64)>> = (0..all.len().div_ceil(per))
         .into_par_iter()
         .map(|j| {
             let lo = j * per;
-            let mut sums = vec![(DVec3::ZERO, 0.0f64); per.min(all.len() - lo)];
+            // Per vertex: the sum of the area-weighted normals, the largest circumradius², and
+            // the sum of twice the areas.
+            let mut sums = vec![(DVec3::ZERO, 0.0f64, 0.0f64); per.min(all.len() - lo)];
             for &t in tris {
                 let local = t.map(|i| (i as usize).wrapping_sub(lo));
                 if local.iter().all(|&k| k >= sums.len()) {
                     continue;
                 }
                 let Some((nrm, r2)) = triangle_terms(t.map(|i| all[i as usize].pos)) else { continue };
+                let area2 = nrm.length();
                 for k in local {
                     if let Some(s) = sums.get_mut(k) {
                         s.0 += nrm;
                         s.1 = s.1.max(r2);
+                        s.2 += area2;
                     }
                 }
             }
@@ -325,11 +334,12 @@ fn apply_triangles(points: &mut [InputPoint], tris: &[[u32; 3]]) {
         })
         .collect();
     points.par_chunks_mut(per).zip(sums).for_each(|(points, sums)| {
-        for (p, (nrm, r2)) in points.iter_mut().zip(sums) {
+        for (p, (nrm, r2, area2)) in points.iter_mut().zip(sums) {
             if p.normal == Vec3::ZERO {
                 p.normal = nrm.try_normalize().map_or(Vec3::ZERO, |v| v.as_vec3());
             }
             p.radius = r2.sqrt() as f32;
+            p.spacing = (area2 / 6.0).sqrt() as f32;
         }
     });
 }
@@ -477,7 +487,7 @@ pub fn read_ply(
                 }
                 None => [0; 4],
             };
-            let p = InputPoint { pos: DVec3::new(x, y, z), normal, color, radius: 0.0 };
+            let p = InputPoint { pos: DVec3::new(x, y, z), normal, color, radius: 0.0, spacing: 0.0 };
             if use_faces {
                 buffered.points.push(p);
             } else if sink_err.is_none() {
@@ -562,6 +572,7 @@ pub fn read_obj(
                             normal: Vec3::ZERO,
                             color,
                             radius: 0.0,
+                            spacing: 0.0,
                         });
                     }
                     ObjStmt::Face { line, n } => {
