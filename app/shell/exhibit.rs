@@ -26,36 +26,42 @@ pub fn model_file(dir: &Path) -> anyhow::Result<PathBuf> {
         .with_context(|| format!("{}: no model (*.kstore, *.ply, *.ply.gz or *.obj)", dir.display()))
 }
 
-/// Opens an exhibit's model, importing a scan into the cache when needed (the cache key is the
-/// scan's path, size and modification time and the builder's settings, so an edited scan is
-/// imported again).
+/// Opens an exhibit's model, importing a scan into the cache when needed (see [`cache_name`]:
+/// an edited scan, other settings or a new builder import it again).
 pub fn open_model(dir: &Path) -> anyhow::Result<MappedStore> {
     let file = model_file(dir)?;
     if file.extension().is_some_and(|e| e == "kstore") {
         return crate::open_store(&file);
     }
-    let meta = std::fs::metadata(&file)?;
-    let modified = meta.modified().ok().and_then(|m| m.duration_since(std::time::UNIX_EPOCH).ok());
     let options = ImportOptions::default();
-    // The builder's settings are part of the key: a store built with other settings is not reused.
+    let name = cache_name(&file, &options, kiosk_import::BUILDER_REVISION)?;
+    let cache = std::env::temp_dir().join("isokiosk-cache");
+    std::fs::create_dir_all(&cache)?;
+    let store = cache.join(name);
+    if let Ok(s) = crate::open_store(&store) {
+        return Ok(s);
+    }
+    import(&file, &store, &options)?;
+    crate::open_store(&store)
+}
+
+/// The file name of the store cached from the scan `file`: its name and a hash of its path, size
+/// and modification time, the builder's settings, the builder's `revision` and the store
+/// format's version — a store made otherwise is not reused.
+fn cache_name(file: &Path, options: &ImportOptions, revision: u32) -> anyhow::Result<String> {
+    let meta = std::fs::metadata(file).with_context(|| format!("cannot read {}", file.display()))?;
+    let modified = meta.modified().ok().and_then(|m| m.duration_since(std::time::UNIX_EPOCH).ok());
     let key = format!(
-        "{}-{}-{}-{:?}-{}",
-        file.canonicalize().unwrap_or(file.clone()).display(),
+        "{}-{}-{}-{:?}-{revision}-{}",
+        file.canonicalize().unwrap_or(file.to_path_buf()).display(),
         meta.len(),
         modified.map_or(0, |d| d.as_secs()),
         options.build,
         kiosk_core::scene::store::VERSION
     );
     let hash = crc32fast::hash(key.as_bytes());
-    let cache = std::env::temp_dir().join("isokiosk-cache");
-    std::fs::create_dir_all(&cache)?;
     let stem = file.file_name().and_then(|n| n.to_str()).unwrap_or("model").replace('.', "_");
-    let store = cache.join(format!("{stem}-{hash:08x}.kstore"));
-    if let Ok(s) = crate::open_store(&store) {
-        return Ok(s);
-    }
-    import(&file, &store, &options)?;
-    crate::open_store(&store)
+    Ok(format!("{stem}-{hash:08x}.kstore"))
 }
 
 /// Reads an exhibit's information graph (`graph.xml`), if it has one. Problems are returned
@@ -88,4 +94,29 @@ pub fn open_graph(
 /// Width and height of an image file (read from its header).
 fn image_size(path: &Path) -> Result<(u32, u32), String> {
     image::image_dimensions(path).map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_cached_store_is_not_reused_by_other_settings_or_another_builder() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let scan = dir.path().join("bust.obj");
+        std::fs::write(&scan, "v 0 0 0\nv 1 0 0\n").expect("write");
+        let options = ImportOptions::default();
+        let name = |o: &ImportOptions, revision| cache_name(&scan, o, revision).expect("a scan");
+        let base = name(&options, 2);
+        assert!(base.starts_with("bust_obj-") && base.ends_with(".kstore"), "{base}");
+        assert_eq!(base, name(&options, 2), "the same scan, settings and builder");
+        assert_ne!(base, name(&options, 1), "an earlier builder");
+        let mut other = options.clone();
+        other.build.node_points *= 2;
+        assert_ne!(base, name(&other, 2), "other settings");
+        std::fs::write(&scan, "v 0 0 0\nv 1 0 0\nv 0 1 0\n").expect("edit");
+        assert_ne!(base, name(&options, 2), "an edited scan");
+        let e = cache_name(&dir.path().join("gone.obj"), &options, 2).expect_err("no file");
+        assert!(e.to_string().contains("gone.obj"), "{e}");
+    }
 }

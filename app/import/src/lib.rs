@@ -11,6 +11,11 @@ pub mod source;
 pub mod writer;
 
 pub use build::{BuildError, BuildParams, BuildSummary, Builder, Stage};
+
+/// What the builder makes of a scan, as a number: bumped by every change that makes different
+/// stores from the same input with the same settings, so that stores cached from a scan (the
+/// kiosk's exhibits) are built again by the new code. 2: a mesh's spacings from its faces.
+pub const BUILDER_REVISION: u32 = 2;
 pub use source::{InputPoint, ReadError, ReadOptions, ReadReport};
 
 /// Reads into `buf` until it is full or the input ends; returns the bytes read.
