@@ -562,6 +562,38 @@ mod tests {
     }
 
     #[test]
+    fn only_leaves_holding_a_point_that_needs_something_are_estimated() {
+        let mut pts: Vec<Vec3> =
+            (0..2500).map(|i| Vec3::new((i % 50) as f32 * 0.01, (i / 50) as f32 * 0.01, 0.0)).collect();
+        let boxes = sorted_tree(&mut pts);
+        let exact = estimate(&pts, &boxes, 12, 1, &|_| false, &|_| true).expect("enough points");
+        // Points left of x = 0.2 lack a spacing, one point at the far right lacks a normal.
+        let lacks_spacing = |i: usize| pts[i].x < 0.2;
+        let lone = pts.iter().position(|p| p.x > 0.45 && p.y > 0.45).expect("a corner point");
+        let est = estimate(&pts, &boxes, 12, 1, &|i| i == lone, &lacks_spacing).expect("enough points");
+        let (mut estimated, mut skipped) = (0, 0);
+        for path in boxtree::leaf_paths(pts.len()) {
+            let leaf = path[path.len() - 1];
+            let needed = (leaf.lo..leaf.hi).any(|i| lacks_spacing(i) || i == lone);
+            for i in leaf.lo..leaf.hi {
+                if needed {
+                    assert_eq!(est[i].spacing, exact[i].spacing, "point {i} of a leaf that needs one");
+                    estimated += 1;
+                } else {
+                    assert_eq!(est[i], Estimate { normal: Vec3::ZERO, spacing: 0.0 }, "point {i}");
+                    skipped += 1;
+                }
+            }
+        }
+        assert!(est[lone].normal.z.abs() > 0.999, "the point that needs a normal gets one");
+        // 1000 points lack a spacing; leaves straddle x = 0.2, so a few more are estimated.
+        assert!(
+            (1000..1500).contains(&estimated) && skipped + estimated == 2500,
+            "{estimated} estimated, {skipped} skipped"
+        );
+    }
+
+    #[test]
     fn a_stride_searches_some_points_and_shares_their_spacing() {
         use rand::{Rng, SeedableRng};
         let mut rng = rand_pcg::Pcg64::seed_from_u64(5);
