@@ -561,11 +561,17 @@ mod tests {
         }
     }
 
-    #[test]
-    fn only_leaves_holding_a_point_that_needs_something_are_estimated() {
+    /// A 50 × 50 grid of step 0.01 in z = 0, sorted, with its boxes.
+    fn grid() -> (Vec<Vec3>, Vec<kiosk_core::Aabb>) {
         let mut pts: Vec<Vec3> =
             (0..2500).map(|i| Vec3::new((i % 50) as f32 * 0.01, (i / 50) as f32 * 0.01, 0.0)).collect();
         let boxes = sorted_tree(&mut pts);
+        (pts, boxes)
+    }
+
+    #[test]
+    fn only_leaves_holding_a_point_that_needs_something_are_estimated() {
+        let (pts, boxes) = grid();
         let exact = estimate(&pts, &boxes, 12, 1, &|_| false, &|_| true).expect("enough points");
         // Points left of x = 0.2 lack a spacing, one point at the far right lacks a normal.
         let lacks_spacing = |i: usize| pts[i].x < 0.2;
@@ -643,9 +649,7 @@ mod tests {
 
     #[test]
     fn spacing_of_a_grid_is_its_step() {
-        let mut pts: Vec<Vec3> =
-            (0..2500).map(|i| Vec3::new((i % 50) as f32 * 0.01, (i / 50) as f32 * 0.01, 0.0)).collect();
-        let boxes = sorted_tree(&mut pts);
+        let (pts, boxes) = grid();
         let est = estimate(&pts, &boxes, 12, 1, &|_| true, &|_| true).expect("enough points");
         let interior: Vec<f32> = pts
             .iter()
