@@ -1,8 +1,9 @@
-//! Text read in blocks of whole lines: each block is parsed on a thread of its own (in pieces on
-//! the rayon pool) while the reading thread reads the next block (inflated ahead on a thread of
-//! its own when gzip'd: `source::ReadAhead`) and visits the block before, in order. The ASCII PLY body and OBJ files are read this way; a format says how
-//! a block parses ([`Format`]) and its reader visits the results, so errors come in file order
-//! as a line-by-line reader would give them.
+//! Text read in blocks of whole lines: the reading thread reads each block (inflated ahead on a
+//! thread of its own when gzip'd: `source::ReadAhead`), scans it for where its lines belong and
+//! hands it to a thread of its own to be parsed (in pieces on the rayon pool); a few blocks are
+//! in flight while the reading thread visits the oldest, in order. The ASCII PLY body and OBJ
+//! files are read this way; a format says how a block parses ([`Format`]) and its reader visits
+//! the results, so errors come in file order as a line-by-line reader would give them.
 
 use std::io::BufRead;
 
@@ -13,7 +14,8 @@ pub(crate) const MAX_LINE: usize = 64 << 20;
 /// Lines parsed by one task of the pool.
 pub(crate) const PIECE: usize = 8192;
 
-/// How a format parses a block of whole lines.
+/// How a format parses a block of whole lines: a cheap sequential scan that says where each
+/// line belongs (on the reading thread, in order), then the parse proper (on the pool).
 pub(crate) trait Format: Sync {
     /// Where reading stands between blocks (lines before, the row the next line holds…).
     type At: Copy + Send;
@@ -21,9 +23,12 @@ pub(crate) trait Format: Sync {
     /// parse).
     type Out: Default + Send;
 
-    /// Parses `block` into `out` (cleared first), reading on from `at`; returns where reading
-    /// stands after the block.
-    fn parse(&self, block: &[u8], at: Self::At, out: &mut Self::Out) -> Self::At;
+    /// Notes in `out` (cleared first) which lines of `block` hold what, reading on from `at`;
+    /// returns where reading stands after the block.
+    fn scan(&self, block: &[u8], at: Self::At, out: &mut Self::Out) -> Self::At;
+
+    /// Parses the lines [`Format::scan`] noted in `out`.
+    fn parse(&self, block: &[u8], out: &mut Self::Out);
 }
 
 /// Why reading stopped before the end of the input.
@@ -34,6 +39,11 @@ pub(crate) enum Stop {
     /// No line end within [`MAX_LINE`] bytes after the last line read.
     Overlong,
 }
+
+/// Blocks read and scanned ahead of the one being visited, each parsed on a thread of its own:
+/// the pool has the next blocks' pieces to parse while the reading thread visits one, scans the
+/// next or waits for the input.
+const IN_FLIGHT: usize = 3;
 
 /// Reads `r` to its end, calling `visit(block, parsed)` for each block in order, and returns
 /// where reading stands after the last. When reading fails, the lines read before are visited
@@ -58,46 +68,62 @@ pub(crate) fn read<F: Format, E>(
         Thread(H),
         Done(P),
     }
+    /// Why the blocks in flight could not all be visited.
+    enum Halt<E, A> {
+        /// A visit failed.
+        Visit(E),
+        /// The thread parsing the block that starts at this point panicked.
+        Panic(A),
+    }
+    /// The blocks in flight, oldest first: where reading stood before each, and its parse.
+    type Flight<'s, A, O> =
+        std::collections::VecDeque<(A, Parsing<std::thread::ScopedJoinHandle<'s, Block<O>>, Block<O>>)>;
     let inline = rayon::current_thread_index().is_some();
     let mut source = Source { carry: Vec::new(), failed: None };
     std::thread::scope(|s| {
-        // Block k is parsed on a thread of its own while block k − 1 is visited and block k + 1
-        // read here.
-        let mut spare = Block { bytes: Vec::new(), out: F::Out::default() };
-        let mut read = source.next_block(r, std::mem::take(&mut spare.bytes));
-        let mut pending: Option<Block<F::Out>> = None;
-        loop {
-            let parsing = match read {
-                Ok(block) => block.map(|bytes| {
-                    let (from, mut out) = (at, std::mem::take(&mut spare.out));
-                    let job = move || {
-                        let after = format.parse(&bytes, from, &mut out);
-                        (Block { bytes, out }, after)
-                    };
-                    if inline { Parsing::Done(job()) } else { Parsing::Thread(s.spawn(job)) }
-                }),
-                Err(e) => {
-                    if let Some(mut done) = pending.take() {
-                        visit(&done.bytes, &mut done.out)?;
-                    }
-                    return stop(e, at);
-                }
-            };
-            if let Some(mut done) = pending.take() {
-                visit(&done.bytes, &mut done.out)?;
-                spare = done;
+        let mut spares: Vec<Block<F::Out>> = Vec::new();
+        let mut flight: Flight<'_, F::At, F::Out> = std::collections::VecDeque::with_capacity(IN_FLIGHT + 1);
+        // Joins the oldest blocks in flight and visits them, until `keep` remain; their buffers
+        // are used again.
+        let mut land = |flight: &mut Flight<'_, F::At, F::Out>,
+                        spares: &mut Vec<Block<F::Out>>,
+                        keep: usize|
+         -> Result<(), Halt<E, F::At>> {
+            while flight.len() > keep {
+                let Some((from, parsing)) = flight.pop_front() else { break };
+                let mut done = match parsing {
+                    Parsing::Thread(thread) => thread.join().map_err(|_| Halt::Panic(from))?,
+                    Parsing::Done(block) => block,
+                };
+                visit(&done.bytes, &mut done.out).map_err(Halt::Visit)?;
+                spares.push(done);
             }
-            let Some(parsing) = parsing else { return Ok(at) };
-            read = source.next_block(r, std::mem::take(&mut spare.bytes));
-            let (done, after) = match parsing {
-                Parsing::Thread(thread) => match thread.join() {
-                    Ok(parsed) => parsed,
-                    Err(_) => return stop(Stop::Io(std::io::Error::other("a parser thread panicked")), at),
-                },
-                Parsing::Done(parsed) => parsed,
+            Ok(())
+        };
+        let result = loop {
+            let spare = spares.pop().unwrap_or_else(|| Block { bytes: Vec::new(), out: F::Out::default() });
+            let bytes = match source.next_block(r, spare.bytes) {
+                Ok(Some(bytes)) => bytes,
+                // The blocks read before the end or the failure are visited first.
+                end => break land(&mut flight, &mut spares, 0).map(|()| end.map(|_| ())),
             };
-            at = after;
-            pending = Some(done);
+            let (from, mut out) = (at, spare.out);
+            at = format.scan(&bytes, at, &mut out);
+            let job = move || {
+                format.parse(&bytes, &mut out);
+                Block { bytes, out }
+            };
+            flight
+                .push_back((from, if inline { Parsing::Done(job()) } else { Parsing::Thread(s.spawn(job)) }));
+            if let Err(h) = land(&mut flight, &mut spares, if inline { 0 } else { IN_FLIGHT }) {
+                break Err(h);
+            }
+        };
+        match result {
+            Ok(Ok(())) => Ok(at),
+            Ok(Err(e)) => stop(e, at),
+            Err(Halt::Visit(e)) => Err(e),
+            Err(Halt::Panic(from)) => stop(Stop::Io(std::io::Error::other("a parser thread panicked")), from),
         }
     })
 }
@@ -566,11 +592,15 @@ mod tests {
         type At = usize;
         type Out = usize;
 
-        fn parse(&self, block: &[u8], at: usize, out: &mut usize) -> usize {
+        fn scan(&self, block: &[u8], at: usize, out: &mut usize) -> usize {
+            *out = 0;
+            at + lines(block).count()
+        }
+
+        fn parse(&self, block: &[u8], out: &mut usize) {
             use rayon::prelude::*;
             let ends: Vec<(usize, usize)> = lines(block).collect();
             *out = ends.par_chunks(PIECE).map(<[_]>::len).sum();
-            at + *out
         }
     }
 

@@ -651,7 +651,7 @@ impl crate::lines::Format for ObjLines {
     type At = usize;
     type Out = ObjParsed;
 
-    fn parse(&self, block: &[u8], mut line: usize, out: &mut ObjParsed) -> usize {
+    fn scan(&self, block: &[u8], mut line: usize, out: &mut ObjParsed) -> usize {
         out.lines.clear();
         for (start, end) in crate::lines::lines(block) {
             line += 1;
@@ -659,6 +659,10 @@ impl crate::lines::Format for ObjLines {
                 out.lines.push((start, end, line));
             }
         }
+        line
+    }
+
+    fn parse(&self, block: &[u8], out: &mut ObjParsed) {
         crate::lines::in_pieces(&out.lines, &mut out.pieces, |lines, p| {
             p.stmts.clear();
             p.values.clear();
@@ -671,7 +675,6 @@ impl crate::lines::Format for ObjLines {
                 }
             }
         });
-        line
     }
 }
 

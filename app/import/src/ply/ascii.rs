@@ -73,9 +73,8 @@ impl lines::Format for Body<'_> {
     type At = Cursor;
     type Out = Parsed;
 
-    /// Assigns the block's non-blank lines to rows (sequentially, cheap) and parses them in
-    /// pieces on the pool.
-    fn parse(&self, block: &[u8], mut cursor: Cursor, p: &mut Parsed) -> Cursor {
+    /// Assigns the block's non-blank lines to rows.
+    fn scan(&self, block: &[u8], mut cursor: Cursor, p: &mut Parsed) -> Cursor {
         let els = self.els;
         p.lines.clear();
         for (start, end) in lines::lines(block) {
@@ -91,8 +90,12 @@ impl lines::Format for Body<'_> {
                 cursor.extra += 1;
             }
         }
-        lines::in_pieces(&p.lines, &mut p.pieces, |ls, piece| parse_piece(block, ls, els, piece));
         cursor
+    }
+
+    /// Parses the rows in pieces on the pool.
+    fn parse(&self, block: &[u8], p: &mut Parsed) {
+        lines::in_pieces(&p.lines, &mut p.pieces, |ls, piece| parse_piece(block, ls, self.els, piece));
     }
 }
 
