@@ -89,8 +89,9 @@ pub(crate) fn read<F: Format, E>(
                         spares: &mut Vec<Block<F::Out>>,
                         keep: usize|
          -> Result<(), Halt<E, F::At>> {
-            while flight.len() > keep {
-                let Some((from, parsing)) = flight.pop_front() else { break };
+            while flight.len() > keep
+                && let Some((from, parsing)) = flight.pop_front()
+            {
                 let mut done = match parsing {
                     Parsing::Thread(thread) => thread.join().map_err(|_| Halt::Panic(from))?,
                     Parsing::Done(block) => block,
