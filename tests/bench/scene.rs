@@ -1,5 +1,7 @@
 //! `cargo bench --bench scene [-- --points N[,N…]] [--quick] [--tradeoff-only]`: the scene's numbers.
 //! `-- --queries-only A.kstore B.kstore …`: tables 2 and 3 only, on existing stores side by side.
+//! `-- --reference`: only the machine's reference figure (inflating the scan), printed with the
+//! tables too: the same fixed work in every run, to tell the machine's slow stretches from its fast.
 //!
 //! Prints tables (and writes `target/bench/scene-tradeoff.svg`):
 //! 1. build throughput and peak RSS: a real scan and synthetic statue-like clouds (10 M by
@@ -49,6 +51,10 @@ fn main() -> anyhow::Result<()> {
         }
         return Ok(());
     }
+    if args.iter().any(|a| a == "--reference") {
+        println!("reference: inflating the scan takes {:.0} ms (median of 5)", inflate_ms(&real_scan())?);
+        return Ok(());
+    }
     let quick = args.iter().any(|a| a == "--quick");
     if args.iter().any(|a| a == "--tradeoff-only") {
         let out_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench");
@@ -65,9 +71,10 @@ fn main() -> anyhow::Result<()> {
     std::fs::create_dir_all(&out_dir)?;
     let scan = real_scan();
     println!(
-        "machine: {} cores; scan: {}",
+        "machine: {} cores; scan: {}; reference: inflating the scan takes {:.0} ms (median of 5)",
         std::thread::available_parallelism().map_or(0, |n| n.get()),
-        scan.display()
+        scan.display(),
+        inflate_ms(&scan)?
     );
 
     // 1. Build.
@@ -116,6 +123,21 @@ fn main() -> anyhow::Result<()> {
     // 4. Speed against accuracy.
     tradeoff(&scan, &out_dir, quick)?;
     Ok(())
+}
+
+/// How long this machine takes, now, to inflate the scan's gzip stream (one thread): the same
+/// fixed work in every run, printed beside the tables so that runs in the machine's slow and fast
+/// stretches can be told apart.
+fn inflate_ms(scan: &Path) -> anyhow::Result<f64> {
+    let mut ms: Vec<f64> = (0..5)
+        .map(|_| {
+            let t = Instant::now();
+            std::io::copy(&mut source::open(scan)?, &mut std::io::sink())?;
+            Ok(t.elapsed().as_secs_f64() * 1e3)
+        })
+        .collect::<anyhow::Result<_>>()?;
+    ms.sort_by(f64::total_cmp);
+    Ok(ms[2])
 }
 
 fn real_scan() -> PathBuf {
