@@ -314,6 +314,15 @@ fn pct(mut v: Vec<f64>, p: f64) -> f64 {
 }
 
 /// Median µs of `f` over the queries (each timed in a batch of 10 to beat timer resolution).
+/// Reads every node of `cut` once, as drawing it does (the renderer uploads the cut's splats),
+/// so that queries are timed on a model in memory, not on its first reads from disk (a store
+/// just built is not in the page cache: it is written around it).
+fn read_cut(store: &MappedStore, cut: &Cut) {
+    for &n in cut.nodes() {
+        store.verify_node(n).expect("a store just built is intact");
+    }
+}
+
 fn time_each(qs: &[DVec3], mut f: impl FnMut(DVec3)) -> f64 {
     let mut t = Vec::new();
     for chunk in qs.chunks(10) {
@@ -335,6 +344,7 @@ fn query_row(name: &str, store: &MappedStore) {
     let (v, _, _) = mid_view(store);
     let cut = converged_cut(store, &v, 1.0);
     let qs = near_surface_queries(store, &cut, 20_000, 1);
+    read_cut(store, &cut);
     let params = QueryParams::default();
     let fine = time_each(&qs, |q| {
         std::hint::black_box(store.fine_target(&cut, q, &params));
@@ -425,6 +435,7 @@ fn tradeoff(scan: &Path, out_dir: &Path, quick: bool) -> anyhow::Result<()> {
         let store = kiosk::open_store(&out)?;
         let cut = Cut::leaves(&store);
         let qs = near_surface_queries(&store, &cut, n_queries, 2);
+        read_cut(&store, &cut);
         let params = QueryParams::default();
         let us = time_each(&qs, |q| {
             std::hint::black_box(store.fine_target(&cut, q, &params));
