@@ -353,3 +353,25 @@ fn obj_errors_name_their_line_in_later_blocks() {
     let pts = read_obj(bad.as_bytes(), &ReadOptions { drop_invalid: true, ..opts }).expect("dropped");
     assert_eq!(pts.len(), 59_999);
 }
+
+#[test]
+fn faces_before_their_vertices_are_checked_once_every_vertex_is_read() {
+    // A face element may come first: its indices can only be checked at the end.
+    let ply = |face: &str| {
+        format!(
+            "ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\n\
+             element vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n\
+             {face}\n0 0 0\n1 0 0\n0 1 0\n"
+        )
+    };
+    let (pts, rep) =
+        source::read_ply_bytes(ply("3 0 1 2").as_bytes(), &ReadOptions::default()).expect("loads");
+    assert_eq!((pts.len(), rep.faces_used), (3, 1));
+    for p in &pts {
+        assert_eq!(p.normal.to_array(), [0.0, 0.0, 1.0], "the face's normal at {:?}", p.pos);
+    }
+    let err = source::read_ply_bytes(ply("3 0 1 5").as_bytes(), &ReadOptions::default())
+        .expect_err("index out of range")
+        .to_string();
+    assert!(err.contains("a face refers to vertex 5 but the file has 3 vertices"), "{err}");
+}

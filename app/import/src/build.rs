@@ -378,7 +378,22 @@ impl Builder {
     pub fn push_all(&mut self, points: Vec<InputPoint>) -> Result<(), BuildError> {
         match &mut self.spill {
             Spill::Memory(v) if v.is_empty() && points.len() <= self.params.chunk_points => {
-                points.iter().try_for_each(|p| self.count_in(p.pos))?;
+                // Counted in and bounded on the pool (min and max are exact in any order); the
+                // first non-finite position is the error `push` would give.
+                if let Some(i) = points.par_iter().position_first(|p| !p.pos.is_finite()) {
+                    self.count += i as u64;
+                    return self.count_in(points[i].pos);
+                }
+                let (min, max) = points
+                    .par_iter()
+                    .fold(
+                        || (DVec3::INFINITY, DVec3::NEG_INFINITY),
+                        |(lo, hi), p| (lo.min(p.pos), hi.max(p.pos)),
+                    )
+                    .reduce(|| (DVec3::INFINITY, DVec3::NEG_INFINITY), |a, b| (a.0.min(b.0), a.1.max(b.1)));
+                self.count += points.len() as u64;
+                self.min = self.min.min(min);
+                self.max = self.max.max(max);
                 self.spill = Spill::Memory(points);
                 Ok(())
             }

@@ -240,6 +240,11 @@ struct Buffered {
     points: Vec<InputPoint>,
     /// The triangles of the faces, in file order, applied once every vertex is read.
     tris: Vec<[u32; 3]>,
+    /// Whether some triangle's indices are still to be checked against the vertices (it was
+    /// read before every vertex was).
+    unchecked: bool,
+    /// Vertices kept only for their place (dropped for a non-finite position).
+    dropped: usize,
 }
 
 impl Buffered {
@@ -247,6 +252,7 @@ impl Buffered {
     /// indices stay right; it is never passed on, and its triangles give nothing to the others.
     fn push_dropped(&mut self, pos: DVec3) {
         debug_assert!(!pos.is_finite());
+        self.dropped += 1;
         self.points.push(InputPoint { pos, normal: Vec3::ZERO, color: [0; 4], radius: 0.0, spacing: 0.0 });
     }
 
@@ -271,6 +277,7 @@ impl Buffered {
             ));
         }
         self.tris.extend((1..idx.len() - 1).map(|k| [idx[0], idx[k], idx[k + 1]].map(|i| i as u32)));
+        self.unchecked |= !vertices_read;
         Ok(())
     }
 
@@ -278,7 +285,9 @@ impl Buffered {
     /// have none of their own) and radii.
     fn finish(mut self, report: &mut ReadReport, sink: &mut dyn Sink) -> Result<(), ReadError> {
         let n = self.points.len();
-        if let Some(t) = self.tris.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
+        if self.unchecked
+            && let Some(t) = self.tris.iter().find(|t| t.iter().any(|&i| i as usize >= n))
+        {
             return Err(ReadError::Unusable(format!(
                 "a face refers to vertex {} but the file has {n} vertices (indices start at 0)",
                 t.iter().max().copied().unwrap_or(0)
@@ -288,7 +297,9 @@ impl Buffered {
             apply_triangles(&mut self.points, &std::mem::take(&mut self.tris));
         }
         // Dropped vertices kept their place for the faces only.
-        self.points.retain(|p| p.pos.is_finite());
+        if self.dropped > 0 {
+            self.points.retain(|p| p.pos.is_finite());
+        }
         report.points += self.points.len() as u64;
         sink.points(self.points).map_err(ReadError::Sink)
     }
