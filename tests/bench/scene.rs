@@ -242,9 +242,10 @@ fn child_build(input: &str, m: usize, out: &str, spacing_stride: usize) -> anyho
     };
     // Before the clock: replacing a store deletes the old one in the final rename, which on this
     // `discard`-mounted disk takes ~20 ms for the dragon's 24 MB; deleting is not building.
-    match std::fs::remove_file(out) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e.into()),
-        _ => {}
+    if let Err(e) = std::fs::remove_file(out)
+        && e.kind() != std::io::ErrorKind::NotFound
+    {
+        return Err(e.into());
     }
     let start = Instant::now();
     let mut b = Builder::new(params, tmp)?;
@@ -319,7 +320,6 @@ fn pct(mut v: Vec<f64>, p: f64) -> f64 {
     v[((v.len() - 1) as f64 * p) as usize]
 }
 
-/// Median µs of `f` over the queries (each timed in a batch of 10 to beat timer resolution).
 /// Reads every node of `cut` once, as drawing it does (the renderer uploads the cut's splats),
 /// so that queries are timed on a model in memory, not on its first reads from disk (a store
 /// just built is not in the page cache: it is written around it).
@@ -329,6 +329,7 @@ fn read_cut(store: &MappedStore, cut: &Cut) {
     }
 }
 
+/// Median µs of `f` over the queries (each timed in a batch of 10 to beat timer resolution).
 fn time_each(qs: &[DVec3], mut f: impl FnMut(DVec3)) -> f64 {
     let mut t = Vec::new();
     for chunk in qs.chunks(10) {
