@@ -311,36 +311,74 @@ pub struct Row {
     pub lists: Vec<Vec<f64>>,
 }
 
-/// Reads every element of the body, calling `visit(element index, row index, row)` for each row
-/// (an element without properties has nothing to read or visit). Returns warnings about
-/// tolerated oddities.
-pub fn read_body(
+impl Row {
+    /// Makes the row one of `el`'s: a NaN value and an empty list per property.
+    pub(crate) fn size_for(&mut self, el: &Element) {
+        let n = el.props.len();
+        self.values.clear();
+        self.values.resize(n, f64::NAN);
+        self.lists.resize_with(n, Vec::new);
+        self.lists.iter_mut().for_each(Vec::clear);
+    }
+}
+
+/// What a reader makes of the rows of a body, each row on its own: on the pool for ASCII bodies
+/// (parsed in pieces in parallel), on the decoding thread for binary rows of a fixed size, and
+/// on the reading thread otherwise. The results of consecutive rows are then taken in file
+/// order ([`read_body_converted`]), so that what is taken and the first error are those of a
+/// reader that converts one row after the other.
+pub trait Convert: Sync {
+    /// What consecutive rows convert into; reused from run to run (its pages stay mapped).
+    type Out: Default + Send;
+
+    /// Empties `out` before a run of rows.
+    fn clear(&self, out: &mut Self::Out);
+
+    /// Converts row `ri` (0-based) of element `ei` into `out`. An error is returned after the
+    /// rows before it are taken (an ASCII body adds the line to a row error without one).
+    fn convert(&self, ei: usize, ri: u64, row: &Row, out: &mut Self::Out) -> Result<(), PlyError>;
+}
+
+/// Reads every element of the body, converting each row with `conv` and passing the results of
+/// consecutive rows to `take`, in file order (an element without properties has nothing to
+/// read or convert). Returns warnings about tolerated oddities.
+pub fn read_body_converted<C: Convert>(
     r: &mut (impl BufRead + Send + ?Sized),
     header: &Header,
-    mut visit: impl FnMut(usize, u64, &Row) -> Result<(), PlyError>,
+    conv: &C,
+    mut take: impl FnMut(&mut C::Out) -> Result<(), PlyError>,
 ) -> Result<Vec<String>, PlyError> {
     if header.format == Format::Ascii {
-        return ascii::read_rows(r, header, &mut visit);
+        return ascii::read_rows(r, header, conv, &mut take);
     }
     let mut warnings = Vec::new();
     let big = header.format == Format::BinaryBe;
     let mut row = Row::default();
     let mut bytes = Vec::new();
+    let mut out = C::Out::default();
     for (ei, el) in header.elements.iter().enumerate() {
-        row.values.clear();
-        row.values.resize(el.props.len(), f64::NAN);
-        row.lists.resize_with(el.props.len(), Vec::new);
+        row.size_for(el);
         if let Some(size) = el.row_size() {
-            read_fixed_rows(r, el, ei, size, big, &mut row, &mut visit)?;
+            read_fixed_rows(r, el, ei, size, big, conv, &mut take)?;
             continue;
         }
+        conv.clear(&mut out);
         for ri in 0..el.count {
-            read_binary_row(r, el, big, &mut row, &mut bytes).map_err(|e| match e {
-                BinErr::Eof => unexpected_end(el, ri),
-                BinErr::Io(e) => PlyError::Io(e),
-            })?;
-            visit(ei, ri, &row)?;
+            let converted = match read_binary_row(r, el, big, &mut row, &mut bytes) {
+                Ok(()) => conv.convert(ei, ri, &row, &mut out),
+                Err(BinErr::Eof) => Err(unexpected_end(el, ri)),
+                Err(BinErr::Io(e)) => Err(PlyError::Io(e)),
+            };
+            if let Err(e) = converted {
+                take(&mut out)?;
+                return Err(e);
+            }
+            if (ri + 1) % VARIABLE_RUN == 0 {
+                take(&mut out)?;
+                conv.clear(&mut out);
+            }
         }
+        take(&mut out)?;
     }
     // Anything after the last element?
     let mut rest = Vec::new();
@@ -349,6 +387,81 @@ pub fn read_body(
         warnings.push(format!("{n} extra byte(s) after the last element ignored"));
     }
     Ok(warnings)
+}
+
+/// Binary rows of variable size (with lists) converted between two takes.
+const VARIABLE_RUN: u64 = 4096;
+
+/// Reads every element of the body, calling `visit(element index, row index, row)` for each row
+/// in order (an element without properties has nothing to read or visit). Returns warnings
+/// about tolerated oddities.
+pub fn read_body(
+    r: &mut (impl BufRead + Send + ?Sized),
+    header: &Header,
+    mut visit: impl FnMut(usize, u64, &Row) -> Result<(), PlyError>,
+) -> Result<Vec<String>, PlyError> {
+    let els = &header.elements;
+    let mut row = Row::default();
+    let mut row_ei = None;
+    read_body_converted(r, header, &Copied(els), |copied: &mut CopiedRows| {
+        let (mut v, mut l, mut item) = (0, 0, 0);
+        for &(ei, ri) in &copied.rows {
+            let el = &els[ei];
+            if row_ei != Some(ei) {
+                row_ei = Some(ei);
+                row.size_for(el);
+            }
+            row.values.copy_from_slice(&copied.values[v..v + el.props.len()]);
+            v += el.props.len();
+            for (pi, p) in el.props.iter().enumerate() {
+                if let PropKind::List { .. } = p.kind {
+                    let end = copied.list_ends[l];
+                    l += 1;
+                    row.lists[pi].clear();
+                    row.lists[pi].extend_from_slice(&copied.items[item..end]);
+                    item = end;
+                }
+            }
+            visit(ei, ri, &row)?;
+        }
+        Ok(())
+    })
+}
+
+/// Rows copied as they are (of the elements `.0`), to be visited in order by [`read_body`].
+struct Copied<'a>(&'a [Element]);
+
+/// Rows flat: each row's element and index, its values (NaN for lists), and the items of its
+/// lists one after the other (`list_ends` closes each list).
+#[derive(Default)]
+struct CopiedRows {
+    rows: Vec<(usize, u64)>,
+    values: Vec<f64>,
+    items: Vec<f64>,
+    list_ends: Vec<usize>,
+}
+
+impl Convert for Copied<'_> {
+    type Out = CopiedRows;
+
+    fn clear(&self, out: &mut CopiedRows) {
+        out.rows.clear();
+        out.values.clear();
+        out.items.clear();
+        out.list_ends.clear();
+    }
+
+    fn convert(&self, ei: usize, ri: u64, row: &Row, out: &mut CopiedRows) -> Result<(), PlyError> {
+        out.rows.push((ei, ri));
+        out.values.extend_from_slice(&row.values);
+        for (p, list) in self.0[ei].props.iter().zip(&row.lists) {
+            if let PropKind::List { .. } = p.kind {
+                out.items.extend_from_slice(list);
+                out.list_ends.push(out.items.len());
+            }
+        }
+        Ok(())
+    }
 }
 
 enum BinErr {
@@ -372,29 +485,36 @@ pub(crate) fn unexpected_end(el: &Element, present: u64) -> PlyError {
     }
 }
 
-/// The decoded values of a batch of whole rows, and whether the input ended within it.
-struct Decoded {
-    values: Vec<f64>,
-    ended: bool,
+/// A batch of whole rows converted: what they convert into, the first row that failed to
+/// convert (the rows after it are not read), and where the input ended within the batch.
+struct Converted<O> {
+    out: O,
+    error: Option<PlyError>,
+    /// Rows present when the input ended within the batch.
+    ended: Option<u64>,
 }
 
-/// The rows of a binary element whose rows all have `size` (> 0) bytes, read and decoded a
-/// batch at a time.
-struct Batches<'a, R: ?Sized> {
+/// The rows of a binary element whose rows all have `size` (> 0) bytes, read, decoded and
+/// converted a batch at a time.
+struct Batches<'a, R: ?Sized, C> {
     r: &'a mut R,
     el: &'a Element,
+    ei: usize,
+    conv: &'a C,
     size: usize,
     big: bool,
     /// Rows per batch.
     batch: u64,
     buf: Vec<u8>,
+    row: Row,
     /// Rows read so far (all of them once the input ended or failed).
     done: u64,
 }
 
-impl<R: BufRead + ?Sized> Batches<'_, R> {
-    /// The next batch, decoded into `values`; `None` after the last one, a short one or a failure.
-    fn next(&mut self, mut values: Vec<f64>) -> Option<std::io::Result<Decoded>> {
+impl<R: BufRead + ?Sized, C: Convert> Batches<'_, R, C> {
+    /// The next batch, converted into `out`; `None` after the last one, a short one or a
+    /// failure.
+    fn next(&mut self, mut out: C::Out) -> Option<std::io::Result<Converted<C::Out>>> {
         if self.done >= self.el.count {
             return None;
         }
@@ -407,79 +527,83 @@ impl<R: BufRead + ?Sized> Batches<'_, R> {
                 return Some(Err(e));
             }
         };
-        values.clear();
-        for bytes in self.buf[..got].chunks_exact(self.size) {
+        self.conv.clear(&mut out);
+        let mut error = None;
+        for (k, bytes) in self.buf[..got].chunks_exact(self.size).enumerate() {
             let mut at = 0;
-            for p in &self.el.props {
+            for (v, p) in self.row.values.iter_mut().zip(&self.el.props) {
                 if let PropKind::Scalar(t) = p.kind {
-                    values.push(t.decode(&bytes[at..], self.big));
+                    *v = t.decode(&bytes[at..], self.big);
                     at += t.size();
                 }
             }
+            if let Err(e) = self.conv.convert(self.ei, self.done + k as u64, &self.row, &mut out) {
+                error = Some(e);
+                break;
+            }
         }
-        let ended = got < self.buf.len();
-        self.done = if ended { self.el.count } else { self.done + rows as u64 };
-        Some(Ok(Decoded { values, ended }))
+        let ended = (got < self.buf.len()).then_some(self.done + (got / self.size) as u64);
+        self.done = if ended.is_some() || error.is_some() { self.el.count } else { self.done + rows as u64 };
+        Some(Ok(Converted { out, error, ended }))
     }
 }
 
 /// Reads the rows of a binary element whose rows all have `size` bytes (scalars only), 1 MiB of
-/// rows per read. An element of more than one batch (the points of a large scan) is read and
-/// decoded on a thread of its own, a batch ahead of the visits: reading and decoding take as
-/// long as the visits.
-fn read_fixed_rows(
+/// rows per read. An element of more than one batch (the points of a large scan) is read,
+/// decoded and converted on a thread of its own, a batch ahead of the takes.
+fn read_fixed_rows<C: Convert>(
     r: &mut (impl BufRead + Send + ?Sized),
     el: &Element,
     ei: usize,
     size: usize,
     big: bool,
-    row: &mut Row,
-    visit: &mut impl FnMut(usize, u64, &Row) -> Result<(), PlyError>,
+    conv: &C,
+    take: &mut impl FnMut(&mut C::Out) -> Result<(), PlyError>,
 ) -> Result<(), PlyError> {
     if size == 0 {
-        // No properties: nothing to read and nothing to visit, however many rows it claims.
+        // No properties: nothing to read and nothing to convert, however many rows it claims.
         return Ok(());
     }
     let batch = ((1 << 20) / size).max(1) as u64;
-    let mut batches = Batches { r, el, size, big, batch, buf: Vec::new(), done: 0 };
-    // Visits the rows of a batch; hands its buffer back.
-    let mut visited = 0u64;
-    let mut take = |d: Decoded| -> Result<Vec<f64>, PlyError> {
-        for values in d.values.chunks_exact(row.values.len()) {
-            row.values.copy_from_slice(values);
-            visit(ei, visited, row)?;
-            visited += 1;
+    let mut row = Row::default();
+    row.size_for(el);
+    let mut batches = Batches { r, el, ei, conv, size, big, batch, buf: Vec::new(), row, done: 0 };
+    // Takes the rows of a batch; hands its buffer back.
+    let mut take_batch = |mut c: Converted<C::Out>| -> Result<C::Out, PlyError> {
+        take(&mut c.out)?;
+        if let Some(e) = c.error {
+            return Err(e);
         }
-        if d.ended {
-            return Err(unexpected_end(el, visited));
+        if let Some(present) = c.ended {
+            return Err(unexpected_end(el, present));
         }
-        Ok(d.values)
+        Ok(c.out)
     };
     if el.count > batch {
         let threaded = std::thread::scope(|s| {
-            let (decoded_tx, decoded) = std::sync::mpsc::channel::<std::io::Result<Decoded>>();
-            // Value buffers go round: at most three in use (decoded, queued, visited).
-            let (spare, spare_rx) = std::sync::mpsc::channel::<Vec<f64>>();
+            let (converted_tx, converted) = std::sync::mpsc::channel::<std::io::Result<Converted<C::Out>>>();
+            // Buffers go round: at most three in use (converted, queued, taken).
+            let (spare, spare_rx) = std::sync::mpsc::channel::<C::Out>();
             for _ in 0..3 {
-                spare.send(Vec::new()).expect("its receiver is here");
+                spare.send(C::Out::default()).expect("its receiver is here");
             }
             let source = &mut batches;
             // The decoder stops after the last batch, a short one or a failure (`next` has
-            // none after them), or when the visits stop (their side hangs up: it may finish the
+            // none after them), or when the takes stop (their side hangs up: it may finish the
             // read it is in first).
             let decoder = move || {
-                while let Ok(values) = spare_rx.recv() {
-                    let Some(d) = source.next(values) else { return };
-                    if decoded_tx.send(d).is_err() {
+                while let Ok(out) = spare_rx.recv() {
+                    let Some(c) = source.next(out) else { return };
+                    if converted_tx.send(c).is_err() {
                         return;
                     }
                 }
             };
             // Without a thread (the system refuses one), the rows are read below instead.
             std::thread::Builder::new().name("ply rows".into()).spawn_scoped(s, decoder).ok()?;
-            Some(decoded.into_iter().try_for_each(|d| {
+            Some(converted.into_iter().try_for_each(|c| {
                 // The decoder may be done already: the buffer is then dropped.
-                let _ = spare.send(take(d?)?);
+                let _ = spare.send(take_batch(c?)?);
                 Ok(())
             }))
         });
@@ -487,9 +611,9 @@ fn read_fixed_rows(
             return result;
         }
     }
-    let mut values = Vec::new();
-    while let Some(d) = batches.next(values) {
-        values = take(d?)?;
+    let mut out = C::Out::default();
+    while let Some(c) = batches.next(out) {
+        out = take_batch(c?)?;
     }
     Ok(())
 }

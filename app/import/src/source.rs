@@ -253,31 +253,14 @@ impl Buffered {
     fn push_dropped(&mut self, pos: DVec3) {
         debug_assert!(!pos.is_finite());
         self.dropped += 1;
-        self.points.push(InputPoint { pos, normal: Vec3::ZERO, color: [0; 4], radius: 0.0, spacing: 0.0 });
+        self.points.push(dropped_vertex(pos));
     }
 
-    /// Takes the triangles (a fan) of a polygon, applied in [`Buffered::finish`]. A polygon with
-    /// fewer than 3 vertices or an index out of range is an error (a broken mesh); indices are
-    /// checked against the vertices here when every vertex is read already (`vertices_read`),
-    /// else in [`Buffered::finish`].
-    fn add_polygon(&mut self, idx: &[f64], vertices_read: bool) -> Result<(), String> {
-        if idx.len() < 3 {
-            return Err(format!("polygon with {} vertex index(es); a face needs at least 3", idx.len()));
-        }
-        // One test per index; which one is wrong, and how, only when one is.
-        let n = self.points.len();
-        let below = if vertices_read { (n as f64).min(f64::from(u32::MAX)) } else { f64::from(u32::MAX) };
-        if !idx.iter().all(|i| (0.0..below).contains(i)) {
-            if let Some(bad) = idx.iter().find(|&&i| !(0.0..f64::from(u32::MAX)).contains(&i)) {
-                return Err(format!("vertex index {bad} is out of range"));
-            }
-            let bad = idx.iter().find(|&&i| i as usize >= n).copied().unwrap_or(f64::NAN);
-            return Err(format!(
-                "vertex index {bad} is out of range: the file has {n} vertices (indices start at 0)"
-            ));
-        }
-        self.tris.extend((1..idx.len() - 1).map(|k| [idx[0], idx[k], idx[k + 1]].map(|i| i as u32)));
-        self.unchecked |= !vertices_read;
+    /// Takes the triangles (a fan) of a polygon ([`polygon_triangles`]), applied in
+    /// [`Buffered::finish`]; its indices are checked there, the vertices still to come.
+    fn add_polygon(&mut self, idx: &[f64]) -> Result<(), String> {
+        polygon_triangles(idx, None, &mut self.tris)?;
+        self.unchecked = true;
         Ok(())
     }
 
@@ -303,6 +286,37 @@ impl Buffered {
         report.points += self.points.len() as u64;
         sink.points(self.points).map_err(ReadError::Sink)
     }
+}
+
+/// The placeholder of a vertex dropped for its non-finite position `pos` (kept for the faces'
+/// indices only).
+fn dropped_vertex(pos: DVec3) -> InputPoint {
+    debug_assert!(!pos.is_finite());
+    InputPoint { pos, normal: Vec3::ZERO, color: [0; 4], radius: 0.0, spacing: 0.0 }
+}
+
+/// Appends the triangles (a fan) of a polygon to `tris`. A polygon with fewer than 3 vertices
+/// or an index out of range is an error (a broken mesh); indices are checked against the
+/// number of `vertices` when every vertex is read already, else only against the range of
+/// `u32` (and later against the vertices, in [`Buffered::finish`]).
+fn polygon_triangles(idx: &[f64], vertices: Option<usize>, tris: &mut Vec<[u32; 3]>) -> Result<(), String> {
+    if idx.len() < 3 {
+        return Err(format!("polygon with {} vertex index(es); a face needs at least 3", idx.len()));
+    }
+    // One test per index; which one is wrong, and how, only when one is.
+    let below = vertices.map_or(f64::from(u32::MAX), |n| (n as f64).min(f64::from(u32::MAX)));
+    if !idx.iter().all(|i| (0.0..below).contains(i)) {
+        if let Some(bad) = idx.iter().find(|&&i| !(0.0..f64::from(u32::MAX)).contains(&i)) {
+            return Err(format!("vertex index {bad} is out of range"));
+        }
+        let n = vertices.unwrap_or(usize::MAX);
+        let bad = idx.iter().find(|&&i| i as usize >= n).copied().unwrap_or(f64::NAN);
+        return Err(format!(
+            "vertex index {bad} is out of range: the file has {n} vertices (indices start at 0)"
+        ));
+    }
+    tris.extend((1..idx.len() - 1).map(|k| [idx[0], idx[k], idx[k + 1]].map(|i| i as u32)));
+    Ok(())
 }
 
 /// Gives every vertex the normalised sum of its triangles' area-weighted normals (where it has
@@ -458,64 +472,36 @@ pub fn read_ply(
             let _ = buffered.tris.try_reserve_exact(usize::try_from(faces).unwrap_or(0));
         }
     }
+    let conv = PlyRows {
+        vi,
+        face,
+        pos_idx,
+        normal_idx,
+        color_idx,
+        alpha_idx,
+        use_faces,
+        drop_invalid: opts.drop_invalid,
+        vertices: face.filter(|&(fi, _)| vi < fi).and_then(|_| usize::try_from(v.count).ok()),
+    };
     let mut dropped = 0u64;
     let mut sink_err = None;
-    let body_warnings = ply::read_body(r, &header, |ei, ri, row| {
-        if ei == vi {
-            report.rows += 1;
-            let [x, y, z] = pos_idx.map(|i| row.values[i]);
-            if !(x.is_finite() && y.is_finite() && z.is_finite()) {
-                if opts.drop_invalid {
-                    dropped += 1;
-                    if use_faces {
-                        buffered.push_dropped(DVec3::new(x, y, z));
-                    }
-                    return Ok(());
+    let body_warnings = ply::read_body_converted(r, &header, &conv, |out: &mut PlyOut| {
+        report.rows += out.rows;
+        report.faces_used += out.faces;
+        dropped += out.dropped;
+        if use_faces {
+            buffered.points.append(&mut out.points);
+            buffered.tris.append(&mut out.tris);
+            buffered.dropped += out.dropped as usize;
+            buffered.unchecked |= out.unchecked;
+        } else if sink_err.is_none() {
+            for p in out.points.drain(..) {
+                if let Err(e) = sink.point(p) {
+                    sink_err = Some(e);
+                    break;
                 }
-                return Err(PlyError::Row {
-                    element: "vertex".into(),
-                    row: ri + 1,
-                    line: None,
-                    msg: format!(
-                        "non-finite coordinate ({x}, {y}, {z}); use --drop-invalid to skip such samples"
-                    ),
-                });
+                report.points += 1;
             }
-            let normal = normal_idx
-                .map(|n| Vec3::new(row.values[n[0]] as f32, row.values[n[1]] as f32, row.values[n[2]] as f32))
-                .and_then(|n| n.is_finite().then_some(n))
-                .and_then(Vec3::try_normalize)
-                .unwrap_or(Vec3::ZERO);
-            let color = match &color_idx {
-                Some(c) => {
-                    let a = alpha_idx.map_or(255, |(i, t)| color_channel(row.values[i], t));
-                    [
-                        color_channel(row.values[c[0].0], c[0].1),
-                        color_channel(row.values[c[1].0], c[1].1),
-                        color_channel(row.values[c[2].0], c[2].1),
-                        a.max(1),
-                    ]
-                }
-                None => [0; 4],
-            };
-            let p = InputPoint { pos: DVec3::new(x, y, z), normal, color, radius: 0.0, spacing: 0.0 };
-            if use_faces {
-                buffered.points.push(p);
-            } else if sink_err.is_none() {
-                match sink.point(p) {
-                    Ok(()) => report.points += 1,
-                    Err(e) => sink_err = Some(e),
-                }
-            }
-        } else if let Some((fi, li)) = face
-            && ei == fi
-            && (use_faces || row.lists[li].len() < 3)
-        {
-            let to_row = |msg| PlyError::Row { element: "face".into(), row: ri + 1, line: None, msg };
-            // Triangles are kept as read (indices checked here when the vertices came first) and
-            // applied once every vertex is read.
-            buffered.add_polygon(&row.lists[li], vi < fi).map_err(to_row)?;
-            report.faces_used += 1;
         }
         Ok(())
     });
@@ -531,6 +517,114 @@ pub fn read_ply(
         buffered.finish(&mut report, sink)?;
     }
     Ok(report)
+}
+
+/// How [`read_ply`] converts the rows of a PLY body (on the pool, [`ply::Convert`]): vertices
+/// into samples, faces into triangles (where they are used).
+struct PlyRows {
+    /// The vertex element, and the face element and its index list.
+    vi: usize,
+    face: Option<(usize, usize)>,
+    /// Where a vertex row holds its position, normal, colour and alpha (with their types).
+    pos_idx: [usize; 3],
+    normal_idx: Option<[usize; 3]>,
+    color_idx: Option<Vec<(usize, ply::Scalar)>>,
+    alpha_idx: Option<(usize, ply::Scalar)>,
+    /// Whether the faces give the vertices normals and radii (else only broken polygons are
+    /// looked at: an error either way).
+    use_faces: bool,
+    drop_invalid: bool,
+    /// The vertices a face may refer to, when every vertex comes before the faces (else the
+    /// indices are checked once every vertex is read).
+    vertices: Option<usize>,
+}
+
+/// The rows of a run converted: its vertices (a dropped one as a placeholder where the faces
+/// are used, to keep the faces' indices right), its faces' triangles, and counts.
+#[derive(Default)]
+struct PlyOut {
+    points: Vec<InputPoint>,
+    tris: Vec<[u32; 3]>,
+    /// Vertex rows, of which dropped for a non-finite position, and faces used.
+    rows: u64,
+    dropped: u64,
+    faces: u64,
+    /// Whether a triangle's indices are still to be checked against the vertices.
+    unchecked: bool,
+}
+
+impl ply::Convert for PlyRows {
+    type Out = PlyOut;
+
+    fn clear(&self, out: &mut PlyOut) {
+        out.points.clear();
+        out.tris.clear();
+        (out.rows, out.dropped, out.faces, out.unchecked) = (0, 0, 0, false);
+    }
+
+    fn convert(&self, ei: usize, ri: u64, row: &ply::Row, out: &mut PlyOut) -> Result<(), PlyError> {
+        if ei == self.vi {
+            out.rows += 1;
+            let [x, y, z] = self.pos_idx.map(|i| row.values[i]);
+            if !(x.is_finite() && y.is_finite() && z.is_finite()) {
+                if self.drop_invalid {
+                    out.dropped += 1;
+                    if self.use_faces {
+                        out.points.push(dropped_vertex(DVec3::new(x, y, z)));
+                    }
+                    return Ok(());
+                }
+                return Err(PlyError::Row {
+                    element: "vertex".into(),
+                    row: ri + 1,
+                    line: None,
+                    msg: format!(
+                        "non-finite coordinate ({x}, {y}, {z}); use --drop-invalid to skip such samples"
+                    ),
+                });
+            }
+            let normal = self
+                .normal_idx
+                .map(|n| Vec3::new(row.values[n[0]] as f32, row.values[n[1]] as f32, row.values[n[2]] as f32))
+                .and_then(|n| n.is_finite().then_some(n))
+                .and_then(Vec3::try_normalize)
+                .unwrap_or(Vec3::ZERO);
+            let color = match &self.color_idx {
+                Some(c) => {
+                    let a = self.alpha_idx.map_or(255, |(i, t)| color_channel(row.values[i], t));
+                    [
+                        color_channel(row.values[c[0].0], c[0].1),
+                        color_channel(row.values[c[1].0], c[1].1),
+                        color_channel(row.values[c[2].0], c[2].1),
+                        a.max(1),
+                    ]
+                }
+                None => [0; 4],
+            };
+            out.points.push(InputPoint {
+                pos: DVec3::new(x, y, z),
+                normal,
+                color,
+                radius: 0.0,
+                spacing: 0.0,
+            });
+        } else if let Some((fi, li)) = self.face
+            && ei == fi
+            && (self.use_faces || row.lists[li].len() < 3)
+        {
+            // Triangles are kept as read (indices checked here when the vertices came first) and
+            // applied once every vertex is read.
+            polygon_triangles(&row.lists[li], self.vertices, &mut out.tris).map_err(|msg| PlyError::Row {
+                element: "face".into(),
+                row: ri + 1,
+                line: None,
+                msg,
+            })?;
+            out.unchecked |= self.vertices.is_none();
+            out.faces += 1;
+        }
+        Ok(())
+    }
 }
 
 /// Reads an OBJ stream: `v x y z [r g b]` vertices and `f` faces (for normals). Other statements
@@ -596,7 +690,7 @@ pub fn read_obj(
                                 .map(|&i| if i < 0 { count + i as f64 } else { i as f64 - 1.0 }),
                         );
                         f += n;
-                        buffered.add_polygon(&idx, false).map_err(|m| unusable(line, m))?;
+                        buffered.add_polygon(&idx).map_err(|m| unusable(line, m))?;
                         report.faces_used += 1;
                     }
                 }

@@ -1,11 +1,12 @@
 //! ASCII bodies: every row of every element is one line.
 //!
 //! The body is read in blocks of whole lines ([`crate::lines`]). The lines of a block are
-//! assigned to their element and row in one cheap scan, then parsed in pieces in parallel; the
-//! rows are visited in order. Errors are those a line-by-line reader would give, in the same
-//! order: a row is visited only if every row before it parsed and was visited.
+//! assigned to their element and row in one cheap scan, then parsed and converted in pieces in
+//! parallel; the pieces' conversions are taken in order. Errors are those a line-by-line reader
+//! would give, in the same order: a row is taken only if every row before it parsed and
+//! converted.
 
-use super::{Element, Header, PlyError, PropKind, Row, Scalar, short};
+use super::{Convert, Element, Header, PlyError, PropKind, Row, Scalar, short};
 use crate::lines::{self, Stop, Tokens};
 use std::io::BufRead;
 
@@ -45,36 +46,41 @@ struct RowLine {
     line: usize,
 }
 
-/// The rows parsed from consecutive lines, flat: each row's values (NaN for lists), and the items
-/// of its lists one after the other (`list_ends` closes each list). Parsing stops at the first
-/// line in error, which is kept to be returned once the rows before it are visited.
+/// The rows of consecutive lines, each parsed into `row` and converted into `out`. Parsing stops
+/// at the first line in error, which is kept to be returned once the rows before it are taken.
 #[derive(Default)]
-struct Piece {
-    rows: usize,
-    values: Vec<f64>,
-    items: Vec<f64>,
-    list_ends: Vec<usize>,
+struct Piece<O> {
+    /// The row being parsed, and its element.
+    row: Row,
+    row_ei: Option<usize>,
+    out: O,
     error: Option<PlyError>,
 }
 
-/// A block parsed: its lines that hold rows, and their values in pieces.
-#[derive(Default)]
-struct Parsed {
+/// A block parsed: its lines that hold rows, and their conversions in pieces.
+struct Parsed<O> {
     lines: Vec<RowLine>,
-    pieces: Vec<Piece>,
+    pieces: Vec<Piece<O>>,
 }
 
-/// The body's lines as rows of its elements.
-struct Body<'a> {
+impl<O> Default for Parsed<O> {
+    fn default() -> Self {
+        Self { lines: Vec::new(), pieces: Vec::new() }
+    }
+}
+
+/// The body's lines as rows of its elements, converted by `conv`.
+struct Body<'a, C> {
     els: &'a [Element],
+    conv: &'a C,
 }
 
-impl lines::Format for Body<'_> {
+impl<C: Convert> lines::Format for Body<'_, C> {
     type At = Cursor;
-    type Out = Parsed;
+    type Out = Parsed<C::Out>;
 
     /// Assigns the block's non-blank lines to rows.
-    fn scan(&self, block: &[u8], mut cursor: Cursor, p: &mut Parsed) -> Cursor {
+    fn scan(&self, block: &[u8], mut cursor: Cursor, p: &mut Self::Out) -> Cursor {
         let els = self.els;
         p.lines.clear();
         for (start, end) in lines::lines(block) {
@@ -93,31 +99,33 @@ impl lines::Format for Body<'_> {
         cursor
     }
 
-    /// Parses the rows in pieces on the pool.
-    fn parse(&self, block: &[u8], p: &mut Parsed) {
-        lines::in_pieces(&p.lines, &mut p.pieces, |ls, piece| parse_piece(block, ls, self.els, piece));
+    /// Parses and converts the rows in pieces on the pool.
+    fn parse(&self, block: &[u8], p: &mut Self::Out) {
+        lines::in_pieces(&p.lines, &mut p.pieces, |ls, piece| {
+            parse_piece(block, ls, self.els, self.conv, piece)
+        });
     }
 }
 
-/// Reads the rows of every element of an ASCII body, calling `visit` for each in order. Returns
-/// warnings: non-blank lines after the last element, and input that could not be read after it
-/// (junk after gzip data, say), which a line-by-line reader would have stopped at.
-pub(super) fn read_rows(
+/// Reads the rows of every element of an ASCII body, converting each with `conv` and passing
+/// the conversions of each piece to `take` in order. Returns warnings: non-blank lines after
+/// the last element, and input that could not be read after it (junk after gzip data, say),
+/// which a line-by-line reader would have stopped at.
+pub(super) fn read_rows<C: Convert>(
     r: &mut (impl BufRead + ?Sized),
     header: &Header,
-    visit: &mut impl FnMut(usize, u64, &Row) -> Result<(), PlyError>,
+    conv: &C,
+    take: &mut impl FnMut(&mut C::Out) -> Result<(), PlyError>,
 ) -> Result<Vec<String>, PlyError> {
     let els = &header.elements;
     let mut start = Cursor { ei: 0, ri: 0, line: header.lines, extra: 0 };
     start.settle(els);
-    let mut row = Row::default();
-    let mut row_ei = usize::MAX;
     let mut warnings = Vec::new();
     let end = lines::read(
         r,
-        &Body { els },
+        &Body { els, conv },
         start,
-        |_, parsed| visit_block(parsed, els, &mut row, &mut row_ei, visit),
+        |_, parsed| take_block(parsed, take),
         |stop, at| {
             if let Some(el) = els.get(at.ei) {
                 return Err(block_error(stop, el, at));
@@ -153,63 +161,47 @@ fn block_error(e: Stop, el: &Element, at: Cursor) -> PlyError {
     }
 }
 
-fn parse_piece(block: &[u8], lines: &[RowLine], els: &[Element], p: &mut Piece) {
-    p.rows = 0;
-    p.values.clear();
-    p.items.clear();
-    p.list_ends.clear();
+fn parse_piece<C: Convert>(
+    block: &[u8],
+    lines: &[RowLine],
+    els: &[Element],
+    conv: &C,
+    p: &mut Piece<C::Out>,
+) {
+    conv.clear(&mut p.out);
     p.error = None;
     for l in lines {
         let el = &els[l.ei];
+        if p.row_ei != Some(l.ei) {
+            p.row_ei = Some(l.ei);
+            p.row.size_for(el);
+        }
         let text = &block[l.start..l.end];
-        if let Err(msg) = parse_line(text, el, p) {
+        let parsed = parse_line(text, el, &mut p.row).map_err(|msg| {
             let msg =
                 if std::str::from_utf8(text).is_err() { "line is not valid UTF-8 text".into() } else { msg };
-            p.error =
-                Some(PlyError::Row { element: el.name.clone(), row: l.ri + 1, line: Some(l.line), msg });
+            PlyError::Row { element: el.name.clone(), row: l.ri + 1, line: Some(l.line), msg }
+        });
+        if let Err(e) = parsed.and_then(|()| conv.convert(l.ei, l.ri, &p.row, &mut p.out)) {
+            p.error = Some(match e {
+                PlyError::Row { element, row, line: None, msg } => {
+                    PlyError::Row { element, row, line: Some(l.line), msg }
+                }
+                other => other,
+            });
             return;
         }
-        p.rows += 1;
     }
 }
 
-/// Visits the parsed rows of a block in order; returns the first parse or visit error.
-fn visit_block(
-    parsed: &mut Parsed,
-    els: &[Element],
-    row: &mut Row,
-    row_ei: &mut usize,
-    visit: &mut impl FnMut(usize, u64, &Row) -> Result<(), PlyError>,
+/// Takes the conversions of a block's pieces in order; returns the first parse, conversion or
+/// take error.
+fn take_block<O>(
+    parsed: &mut Parsed<O>,
+    take: &mut impl FnMut(&mut O) -> Result<(), PlyError>,
 ) -> Result<(), PlyError> {
-    let mut lines = parsed.lines.iter();
     for piece in &mut parsed.pieces {
-        let (mut v, mut l, mut item) = (0, 0, 0);
-        for rl in lines.by_ref().take(piece.rows) {
-            let el = &els[rl.ei];
-            if *row_ei != rl.ei {
-                *row_ei = rl.ei;
-                row.values.clear();
-                row.values.resize(el.props.len(), f64::NAN);
-                row.lists.resize_with(el.props.len(), Vec::new);
-            }
-            row.values.copy_from_slice(&piece.values[v..v + el.props.len()]);
-            v += el.props.len();
-            for (pi, p) in el.props.iter().enumerate() {
-                if let PropKind::List { .. } = p.kind {
-                    let end = piece.list_ends[l];
-                    l += 1;
-                    row.lists[pi].clear();
-                    row.lists[pi].extend_from_slice(&piece.items[item..end]);
-                    item = end;
-                }
-            }
-            visit(rl.ei, rl.ri, row).map_err(|e| match e {
-                PlyError::Row { element, row, line: None, msg } => {
-                    PlyError::Row { element, row, line: Some(rl.line), msg }
-                }
-                other => other,
-            })?;
-        }
+        take(&mut piece.out)?;
         if let Some(e) = piece.error.take() {
             return Err(e);
         }
@@ -217,22 +209,22 @@ fn visit_block(
     Ok(())
 }
 
-fn parse_line(line: &[u8], el: &Element, out: &mut Piece) -> Result<(), String> {
+/// Parses a line into `row`, a row of `el`.
+fn parse_line(line: &[u8], el: &Element, row: &mut Row) -> Result<(), String> {
     let mut tok = Tokens::new(line);
-    for p in &el.props {
+    for (pi, p) in el.props.iter().enumerate() {
         match p.kind {
-            PropKind::Scalar(t) => out.values.push(parse_value(&mut tok, t, &p.name)?),
+            PropKind::Scalar(t) => row.values[pi] = parse_value(&mut tok, t, &p.name)?,
             PropKind::List { count, item } => {
-                out.values.push(f64::NAN);
                 let n = parse_value(&mut tok, count, &p.name)?;
                 if n < 0.0 {
                     return Err(format!("property '{}': negative list length {n}", p.name));
                 }
+                let list = &mut row.lists[pi];
+                list.clear();
                 for _ in 0..n as u64 {
-                    let v = parse_value(&mut tok, item, &p.name)?;
-                    out.items.push(v);
+                    list.push(parse_value(&mut tok, item, &p.name)?);
                 }
-                out.list_ends.push(out.items.len());
             }
         }
     }
