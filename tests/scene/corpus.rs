@@ -414,6 +414,46 @@ fn large_binary_bodies_name_the_row_of_their_first_problem() {
 }
 
 #[test]
+fn binary_faces_in_many_runs_name_the_row_of_their_first_problem() {
+    // 4 vertices and 10 000 triangles (rows of variable size, converted a run of 4096 at a
+    // time): a bad index in the second run, a file cut in the third.
+    let mesh = |faces: usize, bad: Option<usize>| {
+        let mut ply = b"ply\nformat binary_big_endian 1.0\nelement vertex 4\nproperty double x\n\
+            property double y\nproperty double z\nelement face 10000\n\
+            property list uchar int vertex_indices\nend_header\n"
+            .to_vec();
+        for p in [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]] {
+            p.iter().for_each(|v: &f64| ply.extend(v.to_be_bytes()));
+        }
+        for i in 0..faces {
+            ply.push(3);
+            let last = if Some(i) == bad { 7 } else { 1 + (i % 3) as i32 };
+            for v in [0, (last % 3) + 1, last] {
+                ply.extend(v.to_be_bytes());
+            }
+        }
+        ply
+    };
+    let (pts, rep) = source::read_ply_bytes(&mesh(10_000, None), &ReadOptions::default()).expect("reads");
+    assert_eq!((pts.len(), rep.rows, rep.faces_used), (4, 4, 10_000));
+    assert!(pts.iter().all(|p| p.normal.length() > 0.99 && p.radius > 0.0), "every vertex is in a face");
+    let err = source::read_ply_bytes(&mesh(10_000, Some(5999)), &ReadOptions::default())
+        .expect_err("bad index")
+        .to_string();
+    assert!(
+        err.contains("element 'face' row 6000: vertex index 7 is out of range: the file has 4 vertices"),
+        "{err}"
+    );
+    let err = source::read_ply_bytes(&mesh(9000, None), &ReadOptions::default())
+        .expect_err("truncated")
+        .to_string();
+    assert!(
+        err.contains("element 'face' row 9001: unexpected end of file: 9000 of 10000 rows present"),
+        "{err}"
+    );
+}
+
+#[test]
 fn gzip_is_detected_by_content() {
     // The dragon decimations are gzip-wrapped ASCII PLY.
     let (pts, _) =
