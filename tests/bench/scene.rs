@@ -27,6 +27,10 @@ use std::time::Instant;
 
 type Rng64 = rand_pcg::Pcg64;
 
+/// Builds here take the allocator the `kiosk` binary takes.
+#[global_allocator]
+static ALLOC: kiosk_import::alloc::HugePages = kiosk_import::alloc::HugePages;
+
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if let Some(i) = args.iter().position(|a| a == "--child-build") {
