@@ -13,6 +13,12 @@ use std::fs::{File, OpenOptions};
 use std::io::{self, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
+// SYNC: every full block written directly is synced at once (`fdatasync`, on the writer's
+// thread, while the build goes on). A sync's cost grows with the data written since the last
+// one (on this machine ~0.9 ms per MB: 22 ms for the dragon's 24 MB store, 0.1 ms for a few
+// bytes), so syncing as the blocks go leaves the final sync of a build a block's worth instead
+// of the whole store's.
+
 /// Alignment of direct I/O: of the buffer's address, of the file offsets and of the lengths.
 const ALIGN: usize = 4096;
 
@@ -124,6 +130,10 @@ impl Write for SequentialFile {
         self.filled += n;
         if self.filled == cap {
             self.write_out(cap)?;
+            if self.direct {
+                // Synced block by block, while the build goes on: see `SYNC`.
+                self.file.sync_data()?;
+            }
         }
         Ok(n)
     }
