@@ -85,7 +85,7 @@ fn main() -> anyhow::Result<()> {
     println!("\n## Build (release, default M = {})", BuildParams::default().node_points);
     println!(
         "| input | points | seconds | points/s | peak RSS MB | nodes | levels | store MB | \
-         s: read · distribute · merge · order · estimate · nodes |"
+         s: read · distribute · merge · order · estimate · nodes · finish |"
     );
     println!("|---|---|---|---|---|---|---|---|---|");
     let scan_store = out_dir.join("scan.kstore");
@@ -263,7 +263,7 @@ fn child_build(input: &str, m: usize, out: &str, spacing_stride: usize) -> anyho
     }
     let t = s.timings;
     println!(
-        "| {label} | {} | {secs:.2} | {:.0} | {:.0} | {} | {} | {:.0} | {read:.2} · {:.2} · {:.2} · {:.2} · {:.2} · {:.2} |",
+        "| {label} | {} | {secs:.2} | {:.0} | {:.0} | {} | {} | {:.0} | {read:.2} · {:.2} · {:.2} · {:.2} · {:.2} · {:.2} · {:.3} |",
         s.input_points,
         s.input_points as f64 / secs,
         peak_rss_mb(),
@@ -275,6 +275,7 @@ fn child_build(input: &str, m: usize, out: &str, spacing_stride: usize) -> anyho
         t.order.as_secs_f64(),
         t.estimate.as_secs_f64(),
         t.nodes.as_secs_f64(),
+        t.finish.as_secs_f64(),
     );
     Ok(())
 }

@@ -122,6 +122,9 @@ pub struct Timings {
     pub estimate: std::time::Duration,
     /// Leaves, simplification of inner nodes, writing them.
     pub nodes: std::time::Duration,
+    /// After the last node is made: the writer's last blocks, the index and header, the final
+    /// sync.
+    pub finish: std::time::Duration,
 }
 
 /// Time since `clock`, which restarts.
@@ -473,7 +476,8 @@ impl Builder {
                 (root.ok_or_else(|| BuildError::Degenerate("no samples reached any region".into()))?, chunks)
             }
         };
-        let timings = ctx.timings;
+        let clock = std::time::Instant::now();
+        let mut timings = ctx.timings;
         let largest_region = ctx.largest_region;
         // Freed while the writer writes the last nodes, not after.
         drop(std::mem::take(&mut ctx.scratch));
@@ -483,6 +487,7 @@ impl Builder {
         let nodes = u64::from(root) + 1;
         let leaf = writer_counts(&writer, root);
         let bytes = writer.finish(origin.to_array(), self.count, params.node_points as u32)?;
+        timings.finish = clock.elapsed();
         Ok(BuildSummary {
             input_points: self.count,
             leaf_points: leaf.0,
