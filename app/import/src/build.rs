@@ -123,7 +123,7 @@ pub struct Timings {
     /// Leaves, simplification of inner nodes, writing them.
     pub nodes: std::time::Duration,
     /// After the last node is made: the writer's last blocks, the index and header, the final
-    /// sync.
+    /// sync, the rename into place.
     pub finish: std::time::Duration,
 }
 
