@@ -270,7 +270,7 @@ impl<'a> Iterator for Tokens<'a> {
 /// The first index at or after `i` whose byte is not ASCII whitespace (`space`), or is (not
 /// `space`); the length if there is none.
 #[inline]
-fn skip(b: &[u8], mut i: usize, space: bool) -> usize {
+pub(crate) fn skip(b: &[u8], mut i: usize, space: bool) -> usize {
     while i < b.len() && is_space(b[i]) == space {
         i += 1;
     }
@@ -307,30 +307,7 @@ impl<'a> Tokens<'a> {
     /// is not an integer. `None` at the end of the line.
     #[inline(always)]
     pub(crate) fn next_int(&mut self) -> Option<Result<i64, &'a [u8]>> {
-        self.next_number(parse_i64, |b| {
-            let negative = b[0] == b'-';
-            let digits = usize::from(matches!(b[0], b'-' | b'+'));
-            let mut i = digits;
-            let mut v;
-            if let Some((value, n)) = leading_digits(&b[digits..]) {
-                // Up to 7 digits (indices and counts of most meshes): eight bytes at once.
-                v = value as i64;
-                i += n;
-            } else {
-                v = 0;
-                // At most 18 digits (no overflow); a longer run is no plain integer.
-                let most = b.len().min(digits + 18);
-                while i < most {
-                    let d = b[i].wrapping_sub(b'0');
-                    if d > 9 {
-                        break;
-                    }
-                    v = v * 10 + i64::from(d);
-                    i += 1;
-                }
-            }
-            (i > digits).then_some((if negative { -v } else { v }, i))
-        })
+        self.next_number(parse_i64, plain_int)
     }
 
     /// The next token as the `f64` [`parse_f64`] reads from it, or `Err(token)` when it is not a
@@ -340,6 +317,35 @@ impl<'a> Tokens<'a> {
     pub(crate) fn next_f64(&mut self) -> Option<Result<f64, &'a [u8]>> {
         self.next_number(parse_f64, |b| fast_float2::parse_partial::<f64, _>(b).ok())
     }
+}
+
+/// The plain integer `b` starts with (optional sign, at most 18 digits: no overflow) and its
+/// length in bytes, read in one pass (eight digits at once); `None` when `b` starts with no
+/// digit after its sign. Whether the token ends there is the caller's to check.
+#[inline(always)]
+pub(crate) fn plain_int(b: &[u8]) -> Option<(i64, usize)> {
+    let negative = b.first() == Some(&b'-');
+    let digits = usize::from(matches!(b.first(), Some(b'-' | b'+')));
+    let mut i = digits;
+    let mut v;
+    if let Some((value, n)) = leading_digits(&b[digits..]) {
+        // Up to 7 digits (indices and counts of most meshes): eight bytes at once.
+        v = value as i64;
+        i += n;
+    } else {
+        v = 0;
+        // At most 18 digits (no overflow); a longer run is no plain integer.
+        let most = b.len().min(digits + 18);
+        while i < most {
+            let d = b[i].wrapping_sub(b'0');
+            if d > 9 {
+                break;
+            }
+            v = v * 10 + i64::from(d);
+            i += 1;
+        }
+    }
+    (i > digits).then_some((if negative { -v } else { v }, i))
 }
 
 /// The value and number of the decimal digits `b` starts with, read eight bytes at once

@@ -6,7 +6,7 @@
 //! would give, in the same order: a row is taken only if every row before it parsed and
 //! converted.
 
-use super::{Convert, Element, Header, PlyError, PropKind, Row, Scalar, short};
+use super::{Convert, Element, Header, PlyError, PropKind, Property, Row, Scalar, short};
 use crate::lines::{self, Stop, Tokens};
 use std::io::BufRead;
 
@@ -72,6 +72,8 @@ impl<O> Default for Parsed<O> {
 /// The body's lines as rows of its elements, converted by `conv`.
 struct Body<'a, C> {
     els: &'a [Element],
+    /// Each element's fast path, where it has one.
+    fast: Vec<Option<Fast>>,
     conv: &'a C,
 }
 
@@ -102,7 +104,7 @@ impl<C: Convert> lines::Format for Body<'_, C> {
     /// Parses and converts the rows in pieces on the pool.
     fn parse(&self, block: &[u8], p: &mut Self::Out) {
         lines::in_pieces(&p.lines, &mut p.pieces, |ls, piece| {
-            parse_piece(block, ls, self.els, self.conv, piece)
+            parse_piece(block, ls, self.els, &self.fast, self.conv, piece)
         });
     }
 }
@@ -123,7 +125,7 @@ pub(super) fn read_rows<C: Convert>(
     let mut warnings = Vec::new();
     let end = lines::read(
         r,
-        &Body { els, conv },
+        &Body { els, fast: els.iter().map(Fast::of).collect(), conv },
         start,
         |_, parsed| take_block(parsed, take),
         |stop, at| {
@@ -165,6 +167,7 @@ fn parse_piece<C: Convert>(
     block: &[u8],
     lines: &[RowLine],
     els: &[Element],
+    fast: &[Option<Fast>],
     conv: &C,
     p: &mut Piece<C::Out>,
 ) {
@@ -177,7 +180,9 @@ fn parse_piece<C: Convert>(
             p.row.size_for(el);
         }
         let text = &block[l.start..l.end];
-        let parsed = parse_line(text, el, &mut p.row).map_err(|msg| {
+        let taken = fast[l.ei].as_ref().is_some_and(|f| f.read(&block[l.start..], text.len(), &mut p.row));
+        let parsed = if taken { Ok(()) } else { parse_line(text, el, &mut p.row) };
+        let parsed = parsed.map_err(|msg| {
             let msg =
                 if std::str::from_utf8(text).is_err() { "line is not valid UTF-8 text".into() } else { msg };
             PlyError::Row { element: el.name.clone(), row: l.ri + 1, line: Some(l.line), msg }
@@ -207,6 +212,93 @@ fn take_block<O>(
         }
     }
     Ok(())
+}
+
+/// How the rows of an element are read on their fast path: a line of plain numbers (ASCII, each
+/// within its type, as many as declared) is read straight into the row, in one pass. Any other
+/// line (an error included) is left to [`parse_line`], which reads every line the fast path
+/// takes into the same row: the fast path changes the speed, never the result.
+#[derive(Clone, Debug)]
+enum Fast {
+    /// Every property a scalar, of these types (a vertex).
+    Scalars(Vec<Scalar>),
+    /// A single property, a list (a face).
+    List { count: Scalar, item: Scalar },
+}
+
+impl Fast {
+    /// The fast path of the rows of `el`, if they have one.
+    fn of(el: &Element) -> Option<Self> {
+        match el.props.as_slice() {
+            [Property { kind: PropKind::List { count, item }, .. }] => {
+                Some(Self::List { count: *count, item: *item })
+            }
+            props => props
+                .iter()
+                .map(|p| match p.kind {
+                    PropKind::Scalar(t) => Some(t),
+                    PropKind::List { .. } => None,
+                })
+                .collect::<Option<Vec<_>>>()
+                .map(Self::Scalars),
+        }
+    }
+
+    /// Reads the line of `len` bytes that `text` starts with (and runs on past: the rest of its
+    /// block, which numbers are read in eight bytes at a time; the line end stops them) into
+    /// `row` (sized for the element). False when the line is not one for the fast path (the
+    /// row is then partly written, and [`parse_line`] writes it again).
+    fn read(&self, text: &[u8], len: usize, row: &mut Row) -> bool {
+        let mut at = 0;
+        let all = match self {
+            Self::Scalars(types) => types
+                .iter()
+                .zip(&mut row.values)
+                .all(|(&ty, v)| plain_value(text, len, &mut at, ty).map(|x| *v = x).is_some()),
+            Self::List { count, item } => {
+                let Some(n) = plain_value(text, len, &mut at, *count).filter(|&n| n >= 0.0) else {
+                    return false;
+                };
+                let list = &mut row.lists[0];
+                list.clear();
+                (0..n as u64).all(|_| plain_value(text, len, &mut at, *item).map(|x| list.push(x)).is_some())
+            }
+        };
+        all && lines::skip(&text[..len], at, true) == len
+    }
+}
+
+/// The plain number of type `ty` after the blanks at `*at` in the line of `len` bytes that
+/// `text` starts with (a plain integer within the type's range, or a float as `fast-float2`
+/// reads it), when a blank or the line's end follows; moves `*at` past it. The value
+/// [`parse_value`] gives the same token.
+#[inline(always)]
+fn plain_value(text: &[u8], len: usize, at: &mut usize, ty: Scalar) -> Option<f64> {
+    let start = lines::skip(&text[..len], *at, true);
+    if start == len {
+        return None;
+    }
+    // Past the line's end only when it ends with a line end, which no number takes.
+    let rest = &text[start..];
+    let (v, n) = match ty.range() {
+        Some((lo, hi)) => {
+            let (v, n) = lines::plain_int(rest)?;
+            let v = v as f64;
+            if !(lo..=hi).contains(&v) {
+                return None;
+            }
+            (v, n)
+        }
+        None => {
+            let (v, n) = fast_float2::parse_partial::<f64, _>(rest).ok()?;
+            (if ty == Scalar::F32 { f64::from(v as f32) } else { v }, n)
+        }
+    };
+    if n < rest.len() && !lines::is_space(rest[n]) {
+        return None;
+    }
+    *at = start + n;
+    Some(v)
 }
 
 /// Parses a line into `row`, a row of `el`.
@@ -267,4 +359,162 @@ fn out_of_range(v: i64, ty: Scalar, name: &str) -> String {
 #[cold]
 fn not_a(t: &[u8], what: &str, name: &str) -> String {
     format!("property '{name}': '{}' is not {what}", short(&String::from_utf8_lossy(t)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    fn element(kinds: &[PropKind]) -> Element {
+        let props =
+            kinds.iter().enumerate().map(|(i, &kind)| Property { name: format!("p{i}"), kind }).collect();
+        Element { name: "e".into(), count: 1, props }
+    }
+
+    /// The row `parse_line` makes of `line`, or its error.
+    fn generic(line: &[u8], el: &Element) -> Result<Row, String> {
+        let mut row = Row::default();
+        row.size_for(el);
+        parse_line(line, el, &mut row).map(|()| row)
+    }
+
+    /// The row the fast path makes of `line` (followed in its block by `after`), if it takes it.
+    fn fast(line: &[u8], after: &[u8], el: &Element) -> Option<Row> {
+        let plan = Fast::of(el).expect("a shape with a fast path");
+        let text = [line, after].concat();
+        let mut row = Row::default();
+        row.size_for(el);
+        plan.read(&text, line.len(), &mut row).then_some(row)
+    }
+
+    fn bits(row: &Row) -> (Vec<u64>, Vec<Vec<u64>>) {
+        let b = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        (b(&row.values), row.lists.iter().map(|l| b(l)).collect())
+    }
+
+    fn shapes() -> Vec<Element> {
+        use Scalar::*;
+        let s = PropKind::Scalar;
+        vec![
+            element(&[s(F32), s(F32), s(F32)]),
+            element(&[s(F64), s(U8), s(I16), s(F32)]),
+            element(&[s(I8), s(U16), s(I32), s(U32)]),
+            element(&[PropKind::List { count: U8, item: I32 }]),
+            element(&[PropKind::List { count: I32, item: U32 }]),
+            element(&[PropKind::List { count: U8, item: F32 }]),
+        ]
+    }
+
+    #[test]
+    fn the_fast_path_takes_the_lines_of_common_meshes() {
+        let vertex = element(&[PropKind::Scalar(Scalar::F32); 3]);
+        let row = fast(b"0.032027 0.056575 -0.0503644 ", b"\n3 1 2 3\n", &vertex).expect("taken");
+        assert_eq!(row.values, [0.032027f32, 0.056575, -0.0503644].map(f64::from));
+        let face = element(&[PropKind::List { count: Scalar::U8, item: Scalar::I32 }]);
+        let row = fast(b"3 437644 437643 12", b"", &face).expect("taken at the end of the input");
+        assert_eq!(row.lists[0], [437644.0, 437643.0, 12.0]);
+        assert_eq!(fast(b"4 1 2 3 4\r", b"\n", &face).expect("a CRLF line").lists[0], [1.0, 2.0, 3.0, 4.0]);
+        for (line, why) in [
+            (&b"3 1 2"[..], "a value missing"),
+            (b"3 1 2 3 4", "a value too many"),
+            (b"3 1 2 2147483648", "out of range"),
+            (b"3 1 2 3x", "not a number"),
+            (b"3 1\xc2\xa02 3", "a no-break space (left to the Unicode split)"),
+            (b"-1", "a negative count"),
+        ] {
+            assert!(fast(line, b"\n", &face).is_none(), "{why}: left to parse_line");
+        }
+    }
+
+    /// Lines of tokens plain and not (signs, exponents, `nan`, long digit runs, non-ASCII space
+    /// and letters, CR, tabs, counts that do not match): wherever the fast path takes a line,
+    /// `parse_line` reads the same row from it, bit for bit; and it takes a good share of them.
+    #[test]
+    fn the_fast_path_reads_every_line_it_takes_as_parse_line_does() {
+        // Plain tokens first (most of each line), then the others.
+        let tokens: &[&[u8]] = &[
+            b"0",
+            b"3",
+            b"7",
+            b"-1",
+            b"+2",
+            b"255",
+            b"65535",
+            b"12345678",
+            b"00000012",
+            b"0.5",
+            b"-0.0503644",
+            b"1.5e-3",
+            b"256",
+            b"-129",
+            b"4294967295",
+            b"4294967296",
+            b"-2147483649",
+            b"123456789012345678",
+            b"1234567890123456789",
+            b"1e5",
+            b"1e",
+            b".5",
+            b"5.",
+            b"nan",
+            b"inf",
+            b"-inf",
+            b"infinity",
+            b"0x10",
+            b"1,5",
+            b"\xc3\xa9",
+            b"3e400",
+        ];
+        let seps: &[&[u8]] = &[b" ", b"  ", b"\t", b" \r", b"\xc2\xa0"];
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(7);
+        let pick = |rng: &mut rand_pcg::Pcg64, list: &[&'static [u8]], plain: usize| {
+            if rng.random_bool(0.9) {
+                list[rng.random_range(0..plain)]
+            } else {
+                list[rng.random_range(0..list.len())]
+            }
+        };
+        let (mut taken, mut lines) = (0, 0);
+        for el in shapes() {
+            let is_list = matches!(el.props[0].kind, PropKind::List { .. });
+            for _ in 0..4000 {
+                let n = if is_list {
+                    rng.random_range(0..6)
+                } else {
+                    el.props.len() + usize::from(rng.random_bool(0.1))
+                };
+                let mut line = Vec::new();
+                if rng.random_bool(0.3) {
+                    line.push(b' ');
+                }
+                if is_list {
+                    let count = if rng.random_bool(0.8) {
+                        n.to_string().into_bytes()
+                    } else {
+                        pick(&mut rng, tokens, 9).to_vec()
+                    };
+                    line.extend_from_slice(&count);
+                }
+                for i in 0..n {
+                    if i > 0 || is_list {
+                        line.extend_from_slice(pick(&mut rng, seps, 4));
+                    }
+                    line.extend_from_slice(pick(&mut rng, tokens, 12));
+                }
+                let after: &[u8] = [&b"\n"[..], b"\n123", b""][rng.random_range(0..3)];
+                let got = fast(&line, after, &el);
+                let want = generic(&line, &el);
+                if let Some(row) = got {
+                    let want = want.unwrap_or_else(|e| {
+                        panic!("{}: fast path took it, parse_line: {e}", line.escape_ascii())
+                    });
+                    assert_eq!(bits(&row), bits(&want), "{}", line.escape_ascii());
+                    taken += 1;
+                }
+                lines += 1;
+            }
+        }
+        assert!(taken > lines / 4 && taken < lines, "{taken} lines taken of {lines}");
+    }
 }
