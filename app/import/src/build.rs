@@ -840,42 +840,49 @@ impl Ctx<'_> {
         let keyed = &mut s.keyed;
         merged.par_iter().enumerate().map(|(i, p)| Keyed { pos: p.0, idx: i as u32 }).collect_into_vec(keyed);
         hierarchy_sort(keyed, self.params.node_points);
-        let positions = &mut s.positions;
-        keyed.par_iter().map(|k| k.pos).collect_into_vec(positions);
-        // The rest of each sample follows its position (one gather).
-        let sorted = &mut s.sorted;
-        keyed.par_iter().map(|k| merged[k.idx as usize].1).collect_into_vec(sorted);
-        self.timings.order += lap(&mut clock);
-        // Normals and spacings that the input did not bring (a mesh brings both from its faces).
-        let need_normal = |k: usize| sorted[k].normal == Vec3::ZERO;
-        let need_spacing = |k: usize| !known_spacing(sorted[k].spacing);
-        let est = if (0..sorted.len()).into_par_iter().any(|k| need_normal(k) || need_spacing(k)) {
+        // A sample's splat from what the input brought (`a`) and, where it brought no normal or
+        // spacing, their estimates (`e`).
+        let radius_factor = self.params.radius_factor;
+        let splat = |pos: Vec3, a: &Attrs, e: Estimate| {
+            let normal = if a.normal == Vec3::ZERO { e.normal } else { a.normal };
+            let spacing = if known_spacing(a.spacing) { a.spacing } else { e.spacing };
+            // A lone point far from the rest still gets a finite, positive radius.
+            let h = if known_spacing(spacing) { spacing } else { f32::MIN_POSITIVE };
+            let radius = (radius_factor * h).max(a.min_radius);
+            (Work { pos, normal, radius, color: a.color }, h * h)
+        };
+        let brought = |a: &Attrs| a.normal != Vec3::ZERO && known_spacing(a.spacing);
+        if merged.par_iter().all(|(_, a)| brought(a)) {
+            // Nothing to estimate (a mesh brings normals and spacings from its faces): the
+            // samples go straight into their order.
+            let none = Estimate { normal: Vec3::ZERO, spacing: 0.0 };
+            keyed
+                .par_iter()
+                .map(|k| splat(k.pos, &merged[k.idx as usize].1, none))
+                .unzip_into_vecs(&mut s.work, &mut s.h2);
+            self.timings.order += lap(&mut clock);
+        } else {
+            let positions = &mut s.positions;
+            keyed.par_iter().map(|k| k.pos).collect_into_vec(positions);
+            // The rest of each sample follows its position (one gather).
+            let sorted = &mut s.sorted;
+            keyed.par_iter().map(|k| merged[k.idx as usize].1).collect_into_vec(sorted);
+            self.timings.order += lap(&mut clock);
+            // Estimation searches the whole region in its spatial order.
+            let need_normal = |k: usize| sorted[k].normal == Vec3::ZERO;
+            let need_spacing = |k: usize| !known_spacing(sorted[k].spacing);
             let boxes = boxtree::build_boxes(positions);
             let (k, stride) = (self.params.knn, self.params.spacing_stride);
-            estimate::estimate(positions, &boxes, k, stride, &need_normal, &need_spacing)
-                .ok_or_else(|| BuildError::Degenerate("fewer than 2 distinct points".into()))?
-        } else {
-            Vec::new()
-        };
-        self.timings.estimate += lap(&mut clock);
-        let radius_factor = self.params.radius_factor;
-        let estimated =
-            |k: usize| est.get(k).copied().unwrap_or(Estimate { normal: Vec3::ZERO, spacing: 0.0 });
-        positions
-            .par_iter()
-            .zip(&*sorted)
-            .enumerate()
-            .map(|(k, (&pos, a))| {
-                let e = estimated(k);
-                let normal = if a.normal == Vec3::ZERO { e.normal } else { a.normal };
-                let spacing = if known_spacing(a.spacing) { a.spacing } else { e.spacing };
-                // A lone point far from the rest still gets a finite, positive radius.
-                let h = if known_spacing(spacing) { spacing } else { f32::MIN_POSITIVE };
-                let radius = (radius_factor * h).max(a.min_radius);
-                (Work { pos, normal, radius, color: a.color }, h * h)
-            })
-            .unzip_into_vecs(&mut s.work, &mut s.h2);
-        drop(est);
+            let est = estimate::estimate(positions, &boxes, k, stride, &need_normal, &need_spacing)
+                .ok_or_else(|| BuildError::Degenerate("fewer than 2 distinct points".into()))?;
+            self.timings.estimate += lap(&mut clock);
+            positions
+                .par_iter()
+                .zip(&*sorted)
+                .zip(&est)
+                .map(|((&pos, a), &e)| splat(pos, a, e))
+                .unzip_into_vecs(&mut s.work, &mut s.h2);
+        }
         let r = self.split(&mut s.work, &mut s.h2);
         self.timings.nodes += lap(&mut clock);
         self.scratch = s;
