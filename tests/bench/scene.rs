@@ -401,12 +401,12 @@ fn cut_row(name: &str, store: &MappedStore) {
         points.push(st.points as f64);
     }
     // Which frame took longest: the first (a cold memory map) or any (the machine's scheduler).
-    let slowest = ms.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).map_or(0, |(f, _)| f);
+    let (slowest, max) =
+        ms.iter().copied().enumerate().max_by(|a, b| a.1.total_cmp(&b.1)).unwrap_or_default();
     println!(
-        "| {name} | {frames} | {:.3} | {:.3} | {:.3} ({slowest}) | {:.0} | {:.0} |",
+        "| {name} | {frames} | {:.3} | {:.3} | {max:.3} ({slowest}) | {:.0} | {:.0} |",
         median(ms.clone()),
-        pct(ms.clone(), 0.95),
-        pct(ms, 1.0),
+        pct(ms, 0.95),
         median(nodes),
         median(points)
     );

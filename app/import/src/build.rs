@@ -842,17 +842,18 @@ impl Ctx<'_> {
         hierarchy_sort(keyed, self.params.node_points);
         // A sample's splat from what the input brought (`a`) and, where it brought no normal or
         // spacing, their estimates (`e`).
+        let lacks_normal = |a: &Attrs| a.normal == Vec3::ZERO;
+        let lacks_spacing = |a: &Attrs| !known_spacing(a.spacing);
         let radius_factor = self.params.radius_factor;
         let splat = |pos: Vec3, a: &Attrs, e: Estimate| {
-            let normal = if a.normal == Vec3::ZERO { e.normal } else { a.normal };
-            let spacing = if known_spacing(a.spacing) { a.spacing } else { e.spacing };
+            let normal = if lacks_normal(a) { e.normal } else { a.normal };
+            let spacing = if lacks_spacing(a) { e.spacing } else { a.spacing };
             // A lone point far from the rest still gets a finite, positive radius.
             let h = if known_spacing(spacing) { spacing } else { f32::MIN_POSITIVE };
             let radius = (radius_factor * h).max(a.min_radius);
             (Work { pos, normal, radius, color: a.color }, h * h)
         };
-        let brought = |a: &Attrs| a.normal != Vec3::ZERO && known_spacing(a.spacing);
-        if merged.par_iter().all(|(_, a)| brought(a)) {
+        if !merged.par_iter().any(|(_, a)| lacks_normal(a) || lacks_spacing(a)) {
             // Nothing to estimate (a mesh brings normals and spacings from its faces): the
             // samples go straight into their order.
             let none = Estimate { normal: Vec3::ZERO, spacing: 0.0 };
@@ -869,8 +870,8 @@ impl Ctx<'_> {
             keyed.par_iter().map(|k| merged[k.idx as usize].1).collect_into_vec(sorted);
             self.timings.order += lap(&mut clock);
             // Estimation searches the whole region in its spatial order.
-            let need_normal = |k: usize| sorted[k].normal == Vec3::ZERO;
-            let need_spacing = |k: usize| !known_spacing(sorted[k].spacing);
+            let need_normal = |k: usize| lacks_normal(&sorted[k]);
+            let need_spacing = |k: usize| lacks_spacing(&sorted[k]);
             let boxes = boxtree::build_boxes(positions);
             let (k, stride) = (self.params.knn, self.params.spacing_stride);
             let est = estimate::estimate(positions, &boxes, k, stride, &need_normal, &need_spacing)
