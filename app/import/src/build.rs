@@ -433,6 +433,7 @@ impl Builder {
         let mut ctx = Ctx {
             params,
             scratch: Scratch::default(),
+            keep_scratch: true,
             sink: NodeSink::start(StoreWriter::create(out)?)?,
             done: 0,
             total: self.count,
@@ -442,7 +443,11 @@ impl Builder {
         };
         let (root, chunks) = match self.spill {
             Spill::Memory(v) => {
-                let root = ctx.region(&v, origin)?;
+                // The only region: its samples and buffers are freed as soon as they are used,
+                // so that the nodes and the writer's queue take their pages instead of fresh
+                // ones (on a virtual machine a fresh page can cost a fault on the host too).
+                ctx.keep_scratch = false;
+                let root = ctx.region(v, origin, drop)?;
                 (root, 1)
             }
             Spill::Cells(w) => {
@@ -752,6 +757,8 @@ struct Scratch {
 struct Ctx<'a> {
     params: BuildParams,
     scratch: Scratch,
+    /// Whether [`Ctx::scratch`] is kept for a next region (else freed as soon as it is used).
+    keep_scratch: bool,
     sink: NodeSink,
     done: u64,
     total: u64,
@@ -768,10 +775,16 @@ impl Ctx<'_> {
             Plan::Region => {
                 let recs =
                     regions.next.recv().map_err(|_| std::io::Error::other("the region reader stopped"))??;
-                let sub = if recs.is_empty() { None } else { Some(self.region(&recs, origin)?) };
-                // The reader may have finished: then the buffer is simply freed.
-                let _ = regions.back.send(recs);
-                Ok(sub)
+                // The buffer goes back to the reader as soon as the region has taken its
+                // samples; the reader may have finished: then it is simply freed.
+                let back = |recs| {
+                    let _ = regions.back.send(recs);
+                };
+                if recs.is_empty() {
+                    back(recs);
+                    return Ok(None);
+                }
+                self.region(recs, origin, back).map(Some)
             }
             Plan::Split(children) => {
                 let l = self.top(&children[0], regions, origin)?;
@@ -784,8 +797,14 @@ impl Ctx<'_> {
         }
     }
 
-    /// Processes one in-memory region into a subtree.
-    fn region<R: Record>(&mut self, recs: &[R], origin: DVec3) -> Result<Sub, BuildError> {
+    /// Processes one in-memory region into a subtree; `recs` is handed to `done` as soon as the
+    /// region has taken its samples from it.
+    fn region<R: Record>(
+        &mut self,
+        recs: Vec<R>,
+        origin: DVec3,
+        done: impl FnOnce(Vec<R>),
+    ) -> Result<Sub, BuildError> {
         let mut clock = std::time::Instant::now();
         let n_in = recs.len() as u64;
         self.largest_region = self.largest_region.max(n_in);
@@ -797,6 +816,7 @@ impl Ctx<'_> {
                 ((r.position() - origin).as_vec3(), Attrs { normal, color, min_radius, spacing })
             })
             .collect_into_vec(pts);
+        done(recs);
         // Merge duplicates (identical stored positions): average their normals and colours, keep
         // the largest radius and the area they cover together. A group of duplicates becomes its
         // first sample; the others are dropped. Samples keep their input order.
@@ -883,6 +903,10 @@ impl Ctx<'_> {
                 .zip(&est)
                 .map(|((&pos, a), &e)| splat(pos, a, e))
                 .unzip_into_vecs(&mut s.work, &mut s.h2);
+        }
+        if !self.keep_scratch {
+            // Only the samples in their order are left to use.
+            (s.pts, s.keyed, s.positions, s.sorted) = Default::default();
         }
         let r = self.split(&mut s.work, &mut s.h2);
         self.timings.nodes += lap(&mut clock);
