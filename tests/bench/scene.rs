@@ -89,10 +89,21 @@ fn main() -> anyhow::Result<()> {
     );
     println!("|---|---|---|---|---|---|---|---|---|");
     let scan_store = out_dir.join("scan.kstore");
-    // A third of a second: three builds show how much the machine swings around it.
-    for _ in 0..3 {
-        child(&format!("scan:{}", scan.display()), 8192, &scan_store, None)?;
-    }
+    // A quarter of a second: its figure is the median of several builds (each row printed, so
+    // that the machine's swings around it show), as the queries' figures are medians. Back to
+    // back, and each after a pause as a single import runs: here the paused ones tend to be
+    // slower (this virtual machine reports free pages to its host, so memory freed a while ago
+    // may cost a fault on the host when touched again), so both are measured.
+    let scan_input = format!("scan:{}", scan.display());
+    let scan_builds = (0..SCAN_BUILDS)
+        .map(|_| child(&scan_input, 8192, &scan_store, None))
+        .collect::<anyhow::Result<Vec<(u64, f64)>>>()?;
+    let spaced_builds = (0..SPACED_SCAN_BUILDS)
+        .map(|_| {
+            std::thread::sleep(std::time::Duration::from_secs(SCAN_PAUSE_S));
+            child(&scan_input, 8192, &scan_store, None)
+        })
+        .collect::<anyhow::Result<Vec<(u64, f64)>>>()?;
     let mut synthetic_stores = Vec::new();
     for &n in &sizes {
         let p = out_dir.join(format!("synthetic-{n}.kstore"));
@@ -104,6 +115,22 @@ fn main() -> anyhow::Result<()> {
         let p = out_dir.join("synthetic-exact.kstore");
         child(&format!("synthetic:{}", sizes[0]), 8192, &p, Some(1))?;
         std::fs::remove_file(p)?;
+    }
+
+    println!();
+    for (builds, how) in
+        [(&scan_builds, "back to back".to_string()), (&spaced_builds, format!("{SCAN_PAUSE_S} s apart"))]
+    {
+        let points = builds[0].0 as f64;
+        let secs: Vec<f64> = builds.iter().map(|b| b.1).collect();
+        let (lo, hi) = secs.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &s| (lo.min(s), hi.max(s)));
+        let med = median(secs);
+        println!(
+            "{}, {how}: median of {} builds {med:.3} s = {:.2} M points/s (fastest {lo:.3} s, slowest {hi:.3} s)",
+            scan.file_name().map_or("scan".into(), |n| n.to_string_lossy()),
+            builds.len(),
+            points / med / 1e6
+        );
     }
 
     // 2. Queries.
@@ -148,9 +175,15 @@ fn real_scan() -> PathBuf {
     kiosk::synthetic::dragon_scan()
 }
 
-/// Runs one build in a child process and prints its row (with the default spacing stride unless
-/// one is given).
-fn child(input: &str, m: usize, out: &Path, spacing_stride: Option<usize>) -> anyhow::Result<()> {
+/// Builds of the real scan in a run, back to back and then each after a pause: each row is
+/// printed, the figures are their medians.
+const SCAN_BUILDS: usize = 9;
+const SPACED_SCAN_BUILDS: usize = 5;
+const SCAN_PAUSE_S: u64 = 6;
+
+/// Runs one build in a child process, prints its row (with the default spacing stride unless
+/// one is given) and returns its input points and seconds.
+fn child(input: &str, m: usize, out: &Path, spacing_stride: Option<usize>) -> anyhow::Result<(u64, f64)> {
     let exe = std::env::current_exe()?;
     let mut args = vec!["--child-build".to_string(), input.into(), m.to_string(), out.display().to_string()];
     args.extend(spacing_stride.map(|s| s.to_string()));
@@ -158,8 +191,13 @@ fn child(input: &str, m: usize, out: &Path, spacing_stride: Option<usize>) -> an
     if !o.status.success() {
         anyhow::bail!("build of {input} failed: {}", String::from_utf8_lossy(&o.stderr));
     }
-    print!("{}", String::from_utf8_lossy(&o.stdout));
-    Ok(())
+    let row = String::from_utf8_lossy(&o.stdout);
+    print!("{row}");
+    // The row is `| label | points | seconds | …`.
+    let cell = |i: usize| row.split('|').nth(i).map(str::trim).unwrap_or_default();
+    let points = cell(2).parse().with_context(|| format!("points of the row {row:?}"))?;
+    let secs = cell(3).parse().with_context(|| format!("seconds of the row {row:?}"))?;
+    Ok((points, secs))
 }
 
 fn peak_rss_mb() -> f64 {
@@ -263,7 +301,7 @@ fn child_build(input: &str, m: usize, out: &str, spacing_stride: usize) -> anyho
     }
     let t = s.timings;
     println!(
-        "| {label} | {} | {secs:.2} | {:.0} | {:.0} | {} | {} | {:.0} | {read:.2} · {:.2} · {:.2} · {:.2} · {:.2} · {:.2} · {:.3} |",
+        "| {label} | {} | {secs:.3} | {:.0} | {:.0} | {} | {} | {:.0} | {read:.2} · {:.2} · {:.2} · {:.2} · {:.2} · {:.2} · {:.3} |",
         s.input_points,
         s.input_points as f64 / secs,
         peak_rss_mb(),
