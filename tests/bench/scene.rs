@@ -91,9 +91,8 @@ fn main() -> anyhow::Result<()> {
     let scan_store = out_dir.join("scan.kstore");
     // A quarter of a second: its figure is the median of several builds (each row printed, so
     // that the machine's swings around it show), as the queries' figures are medians. Back to
-    // back, and each after a pause as a single import runs: here the paused ones tend to be
-    // slower (this virtual machine reports free pages to its host, so memory freed a while ago
-    // may cost a fault on the host when touched again), so both are measured.
+    // back, and each after a pause as a single import runs: here the paused ones have often been
+    // slower (why is not known), so both are measured.
     let scan_input = format!("scan:{}", scan.display());
     let scan_builds = (0..SCAN_BUILDS)
         .map(|_| child(&scan_input, 8192, &scan_store, None))

@@ -445,7 +445,7 @@ impl Builder {
             Spill::Memory(v) => {
                 // The only region: its samples and buffers are freed as soon as they are used,
                 // so that the nodes and the writer's queue take their pages instead of fresh
-                // ones (on a virtual machine a fresh page can cost a fault on the host too).
+                // ones (the peak memory of the build, not only of the region).
                 ctx.keep_scratch = false;
                 let root = ctx.region(v, origin, drop)?;
                 (root, 1)
