@@ -122,8 +122,7 @@ fn main() -> anyhow::Result<()> {
     {
         let points = builds[0].0 as f64;
         let secs: Vec<f64> = builds.iter().map(|b| b.1).collect();
-        let (lo, hi) = secs.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &s| (lo.min(s), hi.max(s)));
-        let med = median(secs);
+        let (lo, hi, med) = (pct(secs.clone(), 0.0), pct(secs.clone(), 1.0), median(secs));
         println!(
             "{}, {how}: median of {} builds {med:.3} s = {:.2} M points/s (fastest {lo:.3} s, slowest {hi:.3} s)",
             scan.file_name().map_or("scan".into(), |n| n.to_string_lossy()),

@@ -433,7 +433,10 @@ impl Builder {
         let mut ctx = Ctx {
             params,
             scratch: Scratch::default(),
-            keep_scratch: true,
+            // The only region of a build in memory frees its samples and buffers as soon as
+            // they are used, so that the nodes and the writer's queue take their pages instead
+            // of fresh ones (the peak memory of the build, not only of the region).
+            keep_scratch: matches!(self.spill, Spill::Cells(_)),
             sink: NodeSink::start(StoreWriter::create(out)?)?,
             done: 0,
             total: self.count,
@@ -443,10 +446,6 @@ impl Builder {
         };
         let (root, chunks) = match self.spill {
             Spill::Memory(v) => {
-                // The only region: its samples and buffers are freed as soon as they are used,
-                // so that the nodes and the writer's queue take their pages instead of fresh
-                // ones (the peak memory of the build, not only of the region).
-                ctx.keep_scratch = false;
                 let root = ctx.region(v, origin, drop)?;
                 (root, 1)
             }
