@@ -309,6 +309,9 @@ fn read_obj(bytes: &[u8], opts: &ReadOptions) -> Result<Vec<source::InputPoint>,
     Ok(pts)
 }
 
+/// The OBJ reader keeps its faces' triangles and applies them once every vertex is read; the
+/// PLY reader applies them as they come (the vertices come first and have no normals): the same
+/// points, normals, radii and spacings included, bit for bit.
 #[test]
 fn obj_points_equal_binary_ply_points_across_blocks() {
     let (obj, ply) = obj_and_ply(60_000);

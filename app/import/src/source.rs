@@ -245,6 +245,8 @@ struct Buffered {
     unchecked: bool,
     /// Vertices kept only for their place (dropped for a non-finite position).
     dropped: usize,
+    /// Whether the triangles are applied as they come ([`Buffered::accumulate`]) instead of kept.
+    streamed: bool,
 }
 
 impl Buffered {
@@ -264,6 +266,29 @@ impl Buffered {
         Ok(())
     }
 
+    /// Adds the terms of `tris`, read after every vertex, to the vertices they touch, in the
+    /// vertices' own fields: the normal sums the area-weighted normals, the radius keeps the
+    /// largest circumradius², the spacing sums twice the areas ([`Buffered::finish`] turns them
+    /// into the normal, radius and spacing [`apply_triangles`] gives). For a mesh whose vertices
+    /// come first and have no normals of their own, the common layout: its triangles are applied
+    /// in file order as they are read and never kept, and the vertices need no other buffer.
+    fn accumulate(&mut self, tris: &[[u32; 3]]) {
+        let points = &mut self.points;
+        for t in tris {
+            // Indices were checked against the vertices, all read, when the face was converted.
+            let (Some(a), Some(b), Some(c)) = t.map(|i| points.get(i as usize).map(|p| p.pos)).into() else {
+                continue;
+            };
+            let Some(terms) = triangle_terms([a, b, c]) else { continue };
+            for &i in t {
+                let p = &mut points[i as usize];
+                let mut sum = Terms::kept_in(p);
+                sum.add(terms);
+                (p.normal, p.radius, p.spacing) = (sum.normal, sum.r2, sum.area2);
+            }
+        }
+    }
+
     /// Applies the triangles and passes the vertices on with their face normals (where they
     /// have none of their own) and radii.
     fn finish(mut self, report: &mut ReadReport, sink: &mut dyn Sink) -> Result<(), ReadError> {
@@ -276,7 +301,13 @@ impl Buffered {
                 t.iter().max().copied().unwrap_or(0)
             )));
         }
-        if !self.tris.is_empty() {
+        if self.streamed {
+            use rayon::prelude::*;
+            self.points.par_iter_mut().for_each(|p| {
+                let sum = Terms::kept_in(p);
+                (p.normal, p.radius, p.spacing) = (sum.normal(), sum.radius(), sum.spacing());
+            });
+        } else if !self.tris.is_empty() {
             apply_triangles(&mut self.points, &std::mem::take(&mut self.tris));
         }
         // Dropped vertices kept their place for the faces only.
@@ -333,25 +364,20 @@ fn apply_triangles(points: &mut [InputPoint], tris: &[[u32; 3]]) {
     use rayon::prelude::*;
     let per = points.len().div_ceil(rayon::current_num_threads().max(1)).max(1);
     let all: &[InputPoint] = points;
-    let sums: Vec<Vec<(DVec3, f64, f64)>> = (0..all.len().div_ceil(per))
+    let sums: Vec<Vec<Terms>> = (0..all.len().div_ceil(per))
         .into_par_iter()
         .map(|j| {
             let lo = j * per;
-            // Per vertex: the sum of the area-weighted normals, the largest circumradius², and
-            // the sum of twice the areas.
-            let mut sums = vec![(DVec3::ZERO, 0.0f64, 0.0f64); per.min(all.len() - lo)];
+            let mut sums = vec![Terms::default(); per.min(all.len() - lo)];
             for &t in tris {
                 let local = t.map(|i| (i as usize).wrapping_sub(lo));
                 if local.iter().all(|&k| k >= sums.len()) {
                     continue;
                 }
-                let Some((nrm, r2)) = triangle_terms(t.map(|i| all[i as usize].pos)) else { continue };
-                let area2 = nrm.length();
+                let Some(terms) = triangle_terms(t.map(|i| all[i as usize].pos)) else { continue };
                 for k in local {
                     if let Some(s) = sums.get_mut(k) {
-                        s.0 += nrm;
-                        s.1 = s.1.max(r2);
-                        s.2 += area2;
+                        s.add(terms);
                     }
                 }
             }
@@ -359,20 +385,63 @@ fn apply_triangles(points: &mut [InputPoint], tris: &[[u32; 3]]) {
         })
         .collect();
     points.par_chunks_mut(per).zip(sums).for_each(|(points, sums)| {
-        for (p, (nrm, r2, area2)) in points.iter_mut().zip(sums) {
+        for (p, sum) in points.iter_mut().zip(sums) {
             if p.normal == Vec3::ZERO {
-                p.normal = nrm.try_normalize().map_or(Vec3::ZERO, |v| v.as_vec3());
+                p.normal = sum.normal();
             }
-            p.radius = r2.sqrt() as f32;
-            p.spacing = (area2 / 6.0).sqrt() as f32;
+            (p.radius, p.spacing) = (sum.radius(), sum.spacing());
         }
     });
 }
 
-/// A triangle's area-weighted normal and its circumradius squared (capped by its longest edge),
-/// or `None` when a vertex was dropped (its triangles give nothing to the others).
+/// What a vertex sums of its triangles, in file order: their area-weighted normals, the largest
+/// of their circumradii², twice their areas. In `f32`, the precision of what they become (the
+/// terms of a triangle are computed in `f64`, from its vertices' `f64` positions): a vertex's
+/// sum takes the same 20 bytes as the normal, radius and spacing it ends as, which is where a
+/// streamed mesh keeps it ([`Buffered::accumulate`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct Terms {
+    normal: Vec3,
+    r2: f32,
+    area2: f32,
+}
+
+impl Terms {
+    /// The sum a streamed vertex keeps in its normal, radius and spacing.
+    #[inline]
+    fn kept_in(p: &InputPoint) -> Self {
+        Self { normal: p.normal, r2: p.radius, area2: p.spacing }
+    }
+
+    #[inline]
+    fn add(&mut self, t: Terms) {
+        self.normal += t.normal;
+        self.r2 = self.r2.max(t.r2);
+        self.area2 += t.area2;
+    }
+
+    /// The normalised sum (zero when the triangles have no area), normalised in `f64` so that a
+    /// sum of tiny areas keeps its direction.
+    fn normal(&self) -> Vec3 {
+        self.normal.as_dvec3().try_normalize().map_or(Vec3::ZERO, |v| v.as_vec3())
+    }
+
+    /// The largest circumradius.
+    fn radius(&self) -> f32 {
+        self.r2.sqrt()
+    }
+
+    /// The square root of the area the vertex covers: a third of its triangles' area.
+    fn spacing(&self) -> f32 {
+        (self.area2 / 6.0).sqrt()
+    }
+}
+
+/// A triangle's area-weighted normal, its circumradius squared (capped by its longest edge) and
+/// twice its area, or `None` when a vertex was dropped (its triangles give nothing to the
+/// others).
 #[inline]
-fn triangle_terms([a, b, c]: [DVec3; 3]) -> Option<(DVec3, f64)> {
+fn triangle_terms([a, b, c]: [DVec3; 3]) -> Option<Terms> {
     if !(a.is_finite() && b.is_finite() && c.is_finite()) {
         return None;
     }
@@ -387,7 +456,7 @@ fn triangle_terms([a, b, c]: [DVec3; 3]) -> Option<(DVec3, f64)> {
     // keeps the products within the range of |n|² itself.
     let n2 = nrm.length_squared();
     let circum = if n2 > 0.0 { ab * (bc / n2) * ca * 0.25 } else { longest };
-    Some((nrm, circum.min(longest)))
+    Some(Terms { normal: nrm.as_vec3(), r2: circum.min(longest) as f32, area2: n2.sqrt() as f32 })
 }
 
 fn color_channel(v: f64, ty: ply::Scalar) -> u8 {
@@ -462,12 +531,15 @@ pub fn read_ply(
         ));
     }
     let mut buffered = Buffered::default();
+    // The vertices a face may refer to, when every vertex comes before the faces.
+    let vertices = face.filter(|&(fi, _)| vi < fi).and_then(|_| usize::try_from(v.count).ok());
+    buffered.streamed = use_faces && vertices.is_some() && normal_idx.is_none();
     if use_faces {
         // Every vertex is kept until the faces are applied: room for them at once, up to 4 Mi
         // (a broken header's count takes no more; the buffer grows past that as rows come).
         let _ = buffered.points.try_reserve_exact(usize::try_from(v.count.min(1 << 22)).unwrap_or(0));
         // And for a triangle per face (12 bytes each, kept until every vertex is read), up to 8 Mi.
-        if let Some((fi, _)) = face {
+        if let Some((fi, _)) = face.filter(|_| !buffered.streamed) {
             let faces = header.elements[fi].count.min(1 << 23);
             let _ = buffered.tris.try_reserve_exact(usize::try_from(faces).unwrap_or(0));
         }
@@ -481,7 +553,7 @@ pub fn read_ply(
         alpha_idx,
         use_faces,
         drop_invalid: opts.drop_invalid,
-        vertices: face.filter(|&(fi, _)| vi < fi).and_then(|_| usize::try_from(v.count).ok()),
+        vertices,
     };
     let mut dropped = 0u64;
     let mut sink_err = None;
@@ -491,7 +563,11 @@ pub fn read_ply(
         dropped += out.dropped;
         if use_faces {
             buffered.points.append(&mut out.points);
-            buffered.tris.append(&mut out.tris);
+            if buffered.streamed {
+                buffered.accumulate(&out.tris);
+            } else {
+                buffered.tris.append(&mut out.tris);
+            }
             buffered.dropped += out.dropped as usize;
             buffered.unchecked |= out.unchecked;
         } else if sink_err.is_none() {
