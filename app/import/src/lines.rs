@@ -217,15 +217,16 @@ pub(crate) fn is_blank(line: &[u8]) -> bool {
 }
 
 /// Parses `lines` in pieces of [`PIECE`] on the pool, one output per piece (`pieces` is resized
-/// to their number; each output is reused from block to block, and `parse` clears it).
+/// to their number; each output is reused from block to block, and `parse` clears it); `parse`
+/// is given the piece's index, its lines and its output.
 pub(crate) fn in_pieces<L: Sync, P: Default + Send>(
     lines: &[L],
     pieces: &mut Vec<P>,
-    parse: impl Fn(&[L], &mut P) + Sync,
+    parse: impl Fn(usize, &[L], &mut P) + Sync,
 ) {
     use rayon::prelude::*;
     pieces.resize_with(lines.len().div_ceil(PIECE), P::default);
-    lines.par_chunks(PIECE).zip(pieces.par_iter_mut()).for_each(|(ls, p)| parse(ls, p));
+    lines.par_chunks(PIECE).zip(pieces.par_iter_mut()).enumerate().for_each(|(k, (ls, p))| parse(k, ls, p));
 }
 
 /// Whitespace-separated tokens of a line: split by hand on ASCII whitespace, or as

@@ -844,7 +844,7 @@ impl crate::lines::Format for ObjLines {
     }
 
     fn parse(&self, block: &[u8], out: &mut ObjParsed) {
-        crate::lines::in_pieces(&out.lines, &mut out.pieces, |lines, p| {
+        crate::lines::in_pieces(&out.lines, &mut out.pieces, |_, lines, p| {
             p.stmts.clear();
             p.values.clear();
             p.indices.clear();

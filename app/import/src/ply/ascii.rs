@@ -35,15 +35,16 @@ impl Cursor {
     }
 }
 
-/// A line of a block that holds a row.
+/// A line of a block that holds a row: where it starts and ends in the block, and the lines of
+/// the block before it (a block is at most [`lines::MAX_LINE`] and a [`lines::PIECE`] longer,
+/// well within `u32`). Its row follows from where its piece starts ([`Parsed::firsts`]): the
+/// rows of a piece are consecutive.
 #[derive(Clone, Copy, Debug)]
 struct RowLine {
-    start: usize,
-    end: usize,
-    ei: usize,
-    ri: u64,
-    /// 1-based line of the file.
-    line: usize,
+    // A block holds less than twice `MAX_LINE` bytes (it grows to find a line's end, up to it).
+    start: u32,
+    end: u32,
+    line: u32,
 }
 
 /// The rows of consecutive lines, each parsed into `row` and converted into `out`. Parsing stops
@@ -57,17 +58,24 @@ struct Piece<O> {
     error: Option<PlyError>,
 }
 
-/// A block parsed: its lines that hold rows, and their conversions in pieces.
+/// A block parsed: its lines that hold rows, the row of each piece's first line, and their
+/// conversions in pieces.
 struct Parsed<O> {
+    /// Lines of the file before the block.
+    before: usize,
     lines: Vec<RowLine>,
+    /// Element and row of the first line of each piece.
+    firsts: Vec<(usize, u64)>,
     pieces: Vec<Piece<O>>,
 }
 
 impl<O> Default for Parsed<O> {
     fn default() -> Self {
-        Self { lines: Vec::new(), pieces: Vec::new() }
+        Self { before: 0, lines: Vec::new(), firsts: Vec::new(), pieces: Vec::new() }
     }
 }
+
+const _: () = assert!(4 * lines::MAX_LINE as u64 <= u32::MAX as u64, "block offsets fit in u32");
 
 /// The body's lines as rows of its elements, converted by `conv`.
 struct Body<'a, C> {
@@ -85,13 +93,20 @@ impl<C: Convert> lines::Format for Body<'_, C> {
     fn scan(&self, block: &[u8], mut cursor: Cursor, p: &mut Self::Out) -> Cursor {
         let els = self.els;
         p.lines.clear();
+        p.firsts.clear();
+        p.before = cursor.line;
         for (start, end) in lines::lines(block) {
             cursor.line += 1;
             if lines::is_blank(&block[start..end]) {
                 continue;
             }
             if cursor.ei < els.len() {
-                p.lines.push(RowLine { start, end, ei: cursor.ei, ri: cursor.ri, line: cursor.line });
+                if p.lines.len() % lines::PIECE == 0 {
+                    p.firsts.push((cursor.ei, cursor.ri));
+                }
+                // Offsets and counts within a block fit (see `RowLine`).
+                let line = (cursor.line - p.before - 1) as u32;
+                p.lines.push(RowLine { start: start as u32, end: end as u32, line });
                 cursor.ri += 1;
                 cursor.settle(els);
             } else {
@@ -103,8 +118,10 @@ impl<C: Convert> lines::Format for Body<'_, C> {
 
     /// Parses and converts the rows in pieces on the pool.
     fn parse(&self, block: &[u8], p: &mut Self::Out) {
-        lines::in_pieces(&p.lines, &mut p.pieces, |ls, piece| {
-            parse_piece(block, ls, self.els, &self.fast, self.conv, piece)
+        let (before, firsts) = (p.before, &p.firsts);
+        lines::in_pieces(&p.lines, &mut p.pieces, |k, ls, piece| {
+            let at = Cursor { ei: firsts[k].0, ri: firsts[k].1, line: before, extra: 0 };
+            parse_piece(block, ls, at, self.els, &self.fast, self.conv, piece)
         });
     }
 }
@@ -163,9 +180,12 @@ fn block_error(e: Stop, el: &Element, at: Cursor) -> PlyError {
     }
 }
 
+/// Parses and converts the lines of a piece, whose first line holds the row `at` names (after
+/// `at.line` lines of the file before its block).
 fn parse_piece<C: Convert>(
     block: &[u8],
     lines: &[RowLine],
+    mut at: Cursor,
     els: &[Element],
     fast: &[Option<Fast>],
     conv: &C,
@@ -173,29 +193,35 @@ fn parse_piece<C: Convert>(
 ) {
     conv.clear(&mut p.out);
     p.error = None;
+    let before = at.line;
     for l in lines {
-        let el = &els[l.ei];
-        if p.row_ei != Some(l.ei) {
-            p.row_ei = Some(l.ei);
+        let (ei, ri, line) = (at.ei, at.ri, before + l.line as usize + 1);
+        let el = &els[ei];
+        if p.row_ei != Some(ei) {
+            p.row_ei = Some(ei);
             p.row.size_for(el);
         }
-        let text = &block[l.start..l.end];
-        let taken = fast[l.ei].as_ref().is_some_and(|f| f.read(&block[l.start..], text.len(), &mut p.row));
+        let (start, end) = (l.start as usize, l.end as usize);
+        let text = &block[start..end];
+        let taken = fast[ei].as_ref().is_some_and(|f| f.read(&block[start..], text.len(), &mut p.row));
         let parsed = if taken { Ok(()) } else { parse_line(text, el, &mut p.row) };
         let parsed = parsed.map_err(|msg| {
             let msg =
                 if std::str::from_utf8(text).is_err() { "line is not valid UTF-8 text".into() } else { msg };
-            PlyError::Row { element: el.name.clone(), row: l.ri + 1, line: Some(l.line), msg }
+            PlyError::Row { element: el.name.clone(), row: ri + 1, line: Some(line), msg }
         });
-        if let Err(e) = parsed.and_then(|()| conv.convert(l.ei, l.ri, &p.row, &mut p.out)) {
+        if let Err(e) = parsed.and_then(|()| conv.convert(ei, ri, &p.row, &mut p.out)) {
             p.error = Some(match e {
                 PlyError::Row { element, row, line: None, msg } => {
-                    PlyError::Row { element, row, line: Some(l.line), msg }
+                    PlyError::Row { element, row, line: Some(line), msg }
                 }
                 other => other,
             });
             return;
         }
+        // The next line holds the next row, as the scan assigned it.
+        at.ri += 1;
+        at.settle(els);
     }
 }
 
