@@ -92,7 +92,8 @@ fn main() -> anyhow::Result<()> {
     // A quarter of a second: its figure is the median of several builds (each row printed, so
     // that the machine's swings around it show), as the queries' figures are medians. Back to
     // back, and each after a pause as a single import runs: here the paused ones have often been
-    // slower (why is not known), so both are measured.
+    // slower (fresh memory is dearer after a pause on this machine, though that is not the whole
+    // cause: see tests/bench/scene-history.md), so both are measured.
     let scan_input = format!("scan:{}", scan.display());
     let scan_builds = (0..SCAN_BUILDS)
         .map(|_| child(&scan_input, 8192, &scan_store, None))
