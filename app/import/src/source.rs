@@ -284,7 +284,7 @@ impl Buffered {
                 let p = &mut points[i as usize];
                 let mut sum = Terms::kept_in(p);
                 sum.add(terms);
-                (p.normal, p.radius, p.spacing) = (sum.normal, sum.r2, sum.area2);
+                sum.keep_in(p);
             }
         }
     }
@@ -411,6 +411,12 @@ impl Terms {
     #[inline]
     fn kept_in(p: &InputPoint) -> Self {
         Self { normal: p.normal, r2: p.radius, area2: p.spacing }
+    }
+
+    /// Keeps the sum in the vertex's normal, radius and spacing ([`Terms::kept_in`] reads it).
+    #[inline]
+    fn keep_in(self, p: &mut InputPoint) {
+        (p.normal, p.radius, p.spacing) = (self.normal, self.r2, self.area2);
     }
 
     #[inline]

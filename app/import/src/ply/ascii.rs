@@ -64,8 +64,8 @@ struct Parsed<O> {
     /// Lines of the file before the block.
     before: usize,
     lines: Vec<RowLine>,
-    /// Element and row of the first line of each piece.
-    firsts: Vec<(usize, u64)>,
+    /// Where reading stood at the first line of each piece (its element and row).
+    firsts: Vec<Cursor>,
     pieces: Vec<Piece<O>>,
 }
 
@@ -102,7 +102,7 @@ impl<C: Convert> lines::Format for Body<'_, C> {
             }
             if cursor.ei < els.len() {
                 if p.lines.len() % lines::PIECE == 0 {
-                    p.firsts.push((cursor.ei, cursor.ri));
+                    p.firsts.push(cursor);
                 }
                 // Offsets and counts within a block fit (see `RowLine`).
                 let line = (cursor.line - p.before - 1) as u32;
@@ -120,8 +120,7 @@ impl<C: Convert> lines::Format for Body<'_, C> {
     fn parse(&self, block: &[u8], p: &mut Self::Out) {
         let (before, firsts) = (p.before, &p.firsts);
         lines::in_pieces(&p.lines, &mut p.pieces, |k, ls, piece| {
-            let at = Cursor { ei: firsts[k].0, ri: firsts[k].1, line: before, extra: 0 };
-            parse_piece(block, ls, at, self.els, &self.fast, self.conv, piece)
+            parse_piece(block, ls, firsts[k], before, self.els, &self.fast, self.conv, piece)
         });
     }
 }
@@ -180,12 +179,14 @@ fn block_error(e: Stop, el: &Element, at: Cursor) -> PlyError {
     }
 }
 
-/// Parses and converts the lines of a piece, whose first line holds the row `at` names (after
-/// `at.line` lines of the file before its block).
+/// Parses and converts the lines of a piece, whose first line holds the row `at` names, in a
+/// block after `before` lines of the file.
+#[allow(clippy::too_many_arguments)]
 fn parse_piece<C: Convert>(
     block: &[u8],
     lines: &[RowLine],
     mut at: Cursor,
+    before: usize,
     els: &[Element],
     fast: &[Option<Fast>],
     conv: &C,
@@ -193,7 +194,6 @@ fn parse_piece<C: Convert>(
 ) {
     conv.clear(&mut p.out);
     p.error = None;
-    let before = at.line;
     for l in lines {
         let (ei, ri, line) = (at.ei, at.ri, before + l.line as usize + 1);
         let el = &els[ei];
