@@ -1342,9 +1342,15 @@ fn merge(a: &Work, b: &Work) -> Work {
     let (wa, wb) = (a.radius * a.radius, b.radius * b.radius);
     let ws = (wa + wb).max(f32::MIN_POSITIVE);
     let normal = (a.normal * wa + b.normal * wb).try_normalize().unwrap_or(a.normal);
-    let color = std::array::from_fn(|k| {
-        ((f32::from(a.color[k]) * wa + f32::from(b.color[k]) * wb) / ws).round().clamp(0.0, 255.0) as u8
-    });
+    // Equal colours blend to themselves (the weighted mean of c and c rounds back to c): a scan
+    // without colours, or a region of one colour, skips the arithmetic.
+    let color = if a.color == b.color {
+        a.color
+    } else {
+        std::array::from_fn(|k| {
+            ((f32::from(a.color[k]) * wa + f32::from(b.color[k]) * wb) / ws).round().clamp(0.0, 255.0) as u8
+        })
+    };
     Work {
         pos: (a.pos + b.pos) * 0.5,
         normal,
@@ -1581,6 +1587,33 @@ mod tests {
         let mut none = Vec::new();
         duplicate_groups(1, |_| p(1.0), position_hash, |g| none.push(g.to_vec()));
         assert!(none.is_empty());
+    }
+
+    #[test]
+    fn a_merged_colour_is_the_area_weighted_mean_and_equal_colours_stay_as_they_are() {
+        let at = |x: f32, radius: f32, color: [u8; 4]| Work {
+            pos: Vec3::new(x, 0.0, 0.0),
+            normal: Vec3::Z,
+            radius,
+            color,
+        };
+        // Radii 1 and 3: weights 1 and 9.
+        let m = merge(&at(0.0, 1.0, [0, 100, 255, 10]), &at(1.0, 3.0, [100, 0, 255, 20]));
+        assert_eq!(m.color, [90, 10, 255, 19]);
+        // Equal colours, whatever the weights (even none: two splats of radius 0).
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
+        for _ in 0..10_000 {
+            let c: [u8; 4] = std::array::from_fn(|_| rng.random());
+            let (ra, rb) = (rng.random_range(1e-6..1e3), rng.random_range(1e-6..1e3));
+            let m = merge(&at(0.0, ra, c), &at(1.0, rb, c));
+            let arithmetic: [u8; 4] = std::array::from_fn(|k| {
+                let (wa, wb) = (ra * ra, rb * rb);
+                ((f32::from(c[k]) * wa + f32::from(c[k]) * wb) / (wa + wb)).round() as u8
+            });
+            assert_eq!(m.color, c);
+            assert_eq!(arithmetic, c, "the weighted mean of {c:?} with radii {ra} and {rb}");
+        }
+        assert_eq!(merge(&at(0.0, 0.0, [7; 4]), &at(0.0, 0.0, [7; 4])).color, [7; 4]);
     }
 
     #[test]
