@@ -1340,23 +1340,24 @@ fn pair_ends(key: u64) -> (usize, usize) {
 
 fn merge(a: &Work, b: &Work) -> Work {
     let (wa, wb) = (a.radius * a.radius, b.radius * b.radius);
-    let ws = (wa + wb).max(f32::MIN_POSITIVE);
     let normal = (a.normal * wa + b.normal * wb).try_normalize().unwrap_or(a.normal);
     // Equal colours blend to themselves (the weighted mean of c and c rounds back to c): a scan
     // without colours, or a region of one colour, skips the arithmetic.
-    let color = if a.color == b.color {
-        a.color
-    } else {
-        std::array::from_fn(|k| {
-            ((f32::from(a.color[k]) * wa + f32::from(b.color[k]) * wb) / ws).round().clamp(0.0, 255.0) as u8
-        })
-    };
+    let color = if a.color == b.color { a.color } else { blend(a.color, wa, b.color, wb) };
     Work {
         pos: (a.pos + b.pos) * 0.5,
         normal,
         radius: (a.pos - b.pos).length() * 0.5 + a.radius.max(b.radius),
         color,
     }
+}
+
+/// The mean of colours `a` and `b` weighted by `wa` and `wb`, rounded to the nearest level.
+fn blend(a: [u8; 4], wa: f32, b: [u8; 4], wb: f32) -> [u8; 4] {
+    let ws = (wa + wb).max(f32::MIN_POSITIVE);
+    std::array::from_fn(|k| {
+        ((f32::from(a[k]) * wa + f32::from(b[k]) * wb) / ws).round().clamp(0.0, 255.0) as u8
+    })
 }
 
 #[cfg(test)]
@@ -1600,19 +1601,21 @@ mod tests {
         // Radii 1 and 3: weights 1 and 9.
         let m = merge(&at(0.0, 1.0, [0, 100, 255, 10]), &at(1.0, 3.0, [100, 0, 255, 20]));
         assert_eq!(m.color, [90, 10, 255, 19]);
-        // Equal colours, whatever the weights (even none: two splats of radius 0).
+        // Equal colours stay as they are, as the weighted mean would leave them, whatever the
+        // weights.
         let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
         for _ in 0..10_000 {
             let c: [u8; 4] = std::array::from_fn(|_| rng.random());
             let (ra, rb) = (rng.random_range(1e-6..1e3), rng.random_range(1e-6..1e3));
             let m = merge(&at(0.0, ra, c), &at(1.0, rb, c));
-            let arithmetic: [u8; 4] = std::array::from_fn(|k| {
-                let (wa, wb) = (ra * ra, rb * rb);
-                ((f32::from(c[k]) * wa + f32::from(c[k]) * wb) / (wa + wb)).round() as u8
-            });
             assert_eq!(m.color, c);
-            assert_eq!(arithmetic, c, "the weighted mean of {c:?} with radii {ra} and {rb}");
+            assert_eq!(
+                blend(c, ra * ra, c, rb * rb),
+                c,
+                "the weighted mean of {c:?} with radii {ra} and {rb}"
+            );
         }
+        // And with no weights at all (two splats of radius 0).
         assert_eq!(merge(&at(0.0, 0.0, [7; 4]), &at(0.0, 0.0, [7; 4])).color, [7; 4]);
     }
 
