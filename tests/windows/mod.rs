@@ -2,6 +2,8 @@
 //! through its real windows, with screenshots of both windows checked pixel by pixel and the
 //! kiosk's trace telling what it was doing at those moments.
 
+mod audio;
+
 use image::RgbaImage;
 use kiosk_core::session::Script;
 use serde_json::Value;

@@ -14,6 +14,12 @@ enum Manager {
     Silent,
 }
 
+/// Decodes a narration file completely (WAV with PCM, Ogg Vorbis, MP3, FLAC), as the kiosk and
+/// the authoring tool play it; the error names the file.
+pub fn decode(path: &Path) -> Result<StaticSoundData, String> {
+    StaticSoundData::from_file(path).map_err(|e| format!("narration {}: {e}", path.display()))
+}
+
 /// Plays one narration at a time.
 pub struct Narrator {
     manager: Manager,
@@ -58,31 +64,37 @@ impl Narrator {
     }
 
     /// Plays a file (stopping the previous narration). A missing or broken file is logged once
-    /// and the kiosk goes on without it.
-    pub fn play(&mut self, path: &Path) {
+    /// and the kiosk goes on without it; the error is returned for callers that show it (the
+    /// authoring tool).
+    pub fn play(&mut self, path: &Path) -> Result<(), String> {
         self.stop();
-        let data = match StaticSoundData::from_file(path) {
+        let data = match decode(path) {
             Ok(d) => d,
             Err(e) => {
                 if self.reported.insert(path.to_path_buf()) {
-                    tracing::warn!("narration {}: {e}; skipped", path.display());
+                    tracing::warn!("{e}; skipped");
                 }
-                return;
+                return Err(e);
             }
         };
         let handle = match &mut self.manager {
             Manager::Device(m) => m.play(data).map_err(|e| e.to_string()),
             Manager::Silent => {
                 self.current = Some(path.to_path_buf());
-                return;
+                return Ok(());
             }
         };
         match handle {
             Ok(h) => {
                 self.playing = Some(h);
                 self.current = Some(path.to_path_buf());
+                Ok(())
             }
-            Err(e) => tracing::warn!("narration {}: cannot play: {e}", path.display()),
+            Err(e) => {
+                let e = format!("narration {}: cannot play: {e}", path.display());
+                tracing::warn!("{e}");
+                Err(e)
+            }
         }
     }
 

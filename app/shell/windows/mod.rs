@@ -587,7 +587,10 @@ impl Running {
                 let Some(g) = ex.graph.as_ref() else { return };
                 match g.nodes.get(*node).and_then(|n| n.narration.get(lang, &g.default_lang)) {
                     // A missing file was reported with the graph's problems when it loaded.
-                    Some(file) if ex.dir.join(file).exists() => self.narrator.play(&ex.dir.join(file)),
+                    Some(file) if ex.dir.join(file).exists() => {
+                        // A broken file is logged once by the narrator; captions still show.
+                        let _ = self.narrator.play(&ex.dir.join(file));
+                    }
                     _ => self.narrator.stop(),
                 }
             }

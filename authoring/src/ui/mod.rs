@@ -270,7 +270,12 @@ impl AuthorApp {
             return;
         };
         let path = self.project.dir().join(rel);
-        self.narrator.get_or_insert_with(|| kiosk::windows::audio::Narrator::new(1.0, false)).play(&path);
+        let narrator = self.narrator.get_or_insert_with(|| kiosk::windows::audio::Narrator::new(1.0, false));
+        match narrator.play(&path) {
+            Ok(()) if narrator.audible() => self.say(format!("playing {}", path.display())),
+            Ok(()) => self.say(format!("{} decodes; no audio device, so it is not heard", path.display())),
+            Err(e) => self.say(format!("error: {e}")),
+        }
     }
 
     /// Applies the edited title and text.
