@@ -1,5 +1,5 @@
-//! The curator's actions on an exhibit, as a headless API (issue: the authoring tool). The egui
-//! tool drives exactly these; tests drive them directly.
+//! The curator's actions on an exhibit, as a headless API. The `author` window ([`ui`], egui)
+//! drives exactly these; tests drive them directly.
 //!
 //! An exhibit is a directory with a model (store or scan) and `graph.xml`; media live beside it
 //! (`thumbs/`, `overlays/`, `roi/`, paths relative to the graph). Every edit of the graph is

@@ -1,4 +1,4 @@
-//! `cargo bench --bench camera [-- --quick]`: IsoCam's numbers (README).
+//! `cargo bench --bench camera [-- --quick]`: IsoCam's numbers (docs/performance.md).
 //!
 //! 1. Hover step and full camera update per frame at maximum input speed, median µs, on a real
 //!    scan and on the synthetic stores left by `cargo bench --bench scene` (50 M if present).

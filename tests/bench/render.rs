@@ -1,5 +1,6 @@
-//! `cargo bench --bench render [-- --quick | --tradeoff-only]`: the renderer's numbers (README). No GPU here: the
-//! adapter is lavapipe (software Vulkan); the command is the same on a GPU.
+//! `cargo bench --bench render [-- --quick | --tradeoff-only]`: the renderer's numbers
+//! (docs/performance.md). No GPU here: the adapter is lavapipe (software Vulkan); the command is
+//! the same on a GPU.
 //!
 //! 1. Splats per second and ms per frame at 1920×1080 (1 px cut) for a real scan and the
 //!    synthetic 50 M-point model (left in target/bench by `cargo bench --bench scene`).

@@ -1,4 +1,5 @@
-//! `cargo bench --bench scene [-- --points N[,N…]] [--quick] [--tradeoff-only]`: the scene's numbers.
+//! `cargo bench --bench scene [-- --points N[,N…]] [--quick] [--tradeoff-only]`: the scene's numbers
+//! (docs/performance.md).
 //! `-- --queries-only A.kstore B.kstore …`: tables 2 and 3 only, on existing stores side by side.
 //! `-- --reference`: only the machine's reference figure (inflating the scan), printed with the
 //! tables too: the same fixed work in every run, to tell the machine's slow stretches from its fast.
@@ -93,7 +94,7 @@ fn main() -> anyhow::Result<()> {
     // that the machine's swings around it show), as the queries' figures are medians. Back to
     // back, and each after a pause as a single import runs: here the paused ones have often been
     // slower (fresh memory is dearer after a pause on this machine, though that is not the whole
-    // cause: see tests/bench/scene-history.md), so both are measured.
+    // cause), so both are measured.
     let scan_input = format!("scan:{}", scan.display());
     let scan_builds = (0..SCAN_BUILDS)
         .map(|_| child(&scan_input, 8192, &scan_store, None))

@@ -1,4 +1,4 @@
-//! `cargo bench --bench story`: the recommendation engine's numbers (README).
+//! `cargo bench --bench story`: the recommendation engine's numbers (docs/performance.md).
 //!
 //! 1. One recommendation step (score every node, select) on the paper's 109-node graph and on a
 //!    10 000-node graph of the same shape; radial candidates among 1 000 views.

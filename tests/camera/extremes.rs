@@ -1,4 +1,5 @@
-//! Numerical extremes of the camera (DESIGN §9).
+//! Numerical extremes of the camera: whatever the input or the scale, it never yields NaN or ∞
+//! and never comes closer to the surface than the minimum distance.
 
 use super::{Script, assert_safe, run};
 use crate::common;

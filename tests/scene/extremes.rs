@@ -1,5 +1,5 @@
-//! Numerical extremes (DESIGN §9): georeferenced offsets, sub-millimetre and huge scales,
-//! degenerate inputs.
+//! Numerical extremes (scans span sub-millimetre carvings and georeferenced coordinates of
+//! 10⁶–10⁷ m): georeferenced offsets, sub-millimetre and huge scales, degenerate inputs.
 
 use crate::common::{self, small_nodes};
 use glam::{DVec3, Vec3};

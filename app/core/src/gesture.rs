@@ -60,7 +60,7 @@ impl Default for GestureSettings {
     }
 }
 
-/// Kind of touch event (DESIGN §11).
+/// Kind of touch event: the session format's `ev` (`down`, `move`, `up`, `cancel`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum TouchKind {

@@ -1,4 +1,4 @@
-//! The kiosk's behaviour above one exploration (thesis 9.8.10, DESIGN §7): a gallery of models
+//! The kiosk's behaviour above one exploration (thesis 9.5, 9.8.10): a gallery of models
 //! on the controller (swipe, tap), help/back/language buttons while exploring, the attract loop
 //! after inactivity (the recommender tours the model on its own), and the reset to the gallery,
 //! its first model and the default language after a longer inactivity.

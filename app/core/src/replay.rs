@@ -1,6 +1,6 @@
 //! Replay: a touch session run at a fixed clock (60 Hz) with no window and no GPU, producing the
-//! trace of DESIGN §11 — the test harness of the whole interaction path. Same store, session,
-//! settings and seed → byte-identical trace.
+//! trace (JSON Lines, one line per frame, then a summary) — the test harness of the whole
+//! interaction path. Same store, session, settings and seed → byte-identical trace.
 
 use crate::camera::{
     Acevit, AcevitSettings, Camera, Controller, IsoCam, IsoCamSettings, SceneRef, Trackball,

@@ -1,4 +1,4 @@
-//! The touch-session format (DESIGN §11): JSON Lines, an optional header object with
+//! The touch-session format: JSON Lines, an optional header object with
 //! `"session"` (format version 1), then one touch event per line. Unknown keys are ignored;
 //! a malformed line is an error naming its line number. The kiosk records visitors in the same
 //! format, so a museum's real session replays in a test.

@@ -13,11 +13,22 @@
 //! 3. Each region is processed in memory: duplicates are merged, normals and spacings estimated
 //!    (when missing), the kd-tree continues down to leaves of at most `node_points` samples with
 //!    split planes chosen for compactness among balanced (median) candidates, and inner nodes are
-//!    built bottom-up by simplifying the union of their two children down to `node_points`.
+//!    built bottom-up by simplifying the union of their two children down to as many samples as
+//!    the larger child holds (at most `node_points`).
 //! 4. The region roots are joined by the same simplification up to the root.
 //!
 //! Memory is bounded by about `chunk_points` samples plus the cells' buffers, whatever the input size
 //! and order (a region holds at most half a chunk, unless all its samples share one position).
+//!
+//! Each region is sorted once, in the order the hierarchy is cut (the kd-tree's median splits,
+//! then inside each leaf node its implicit box hierarchy): the neighbour search runs on that order
+//! and the subtree is cut from it without moving a sample again. Simplification (bettio09 §3,
+//! balsa12 §4) collapses nearest pairs with compatible normals, shortest first; pairs longer than
+//! a few splat radii are merged only where short pairs run out above M, so an isolated sample is
+//! not merged into a disc as large as the gap. The store is written by a thread of its own while
+//! the next region is built ([`crate::writer`]). A region's buffers are kept for the next one
+//! (fresh pages cost a fault and a zeroed page per 4 KiB); a build that fits in one region frees
+//! its input samples as soon as they are taken, so that the nodes reuse those pages.
 
 use crate::estimate::{self, Estimate};
 use crate::source::InputPoint;

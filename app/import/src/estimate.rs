@@ -9,6 +9,18 @@
 //!
 //! Only what the input lacks is estimated: a mesh's vertices bring their normals and spacings
 //! (the same side of the area each covers, from the faces: `source::apply_triangles`).
+//!
+//! The normal is computed in `f64`, in closed form (`smallest_eigenvector`), with Jacobi
+//! rotations where the smallest eigenvalue is nearly double. The neighbour search is exact and
+//! batched by leaf of the region's implicit box hierarchy (8–15 neighbouring samples): each point
+//! first tries a ball 1.25 times the area of the largest k-nearest ball of the leaf before
+//! (neighbouring leaves have similar spacings), one walk of the boxes gathers the leaves those
+//! balls reach, and a point whose ball holds enough samples keeps the nearest of them (no sample
+//! outside the ball can be nearer); the others retry with twice the radius. Samples that bring a
+//! normal but no spacing (most big scans) need only a spacing: by default one in 8 of each leaf
+//! searches (`BuildParams::spacing_stride`) and the others take the spacing of the nearest
+//! searched sample of their leaf, for a third of the search time (the accuracy it costs is
+//! measured by `cargo bench --bench scene`; see docs/performance.md).
 
 use glam::{Mat3, Vec3};
 use kiosk_core::scene::boxtree::{self, PathStep};

@@ -4,6 +4,15 @@
 //! in flight while the reading thread visits the oldest, in order. The ASCII PLY body and OBJ
 //! files are read this way; a format says how a block parses ([`Format`]) and its reader visits
 //! the results, so errors come in file order as a line-by-line reader would give them.
+//!
+//! A block is 1 MiB of whole lines (a longer line grows its block), parsed in pieces of 8192
+//! lines, with three blocks in flight; a line of more than 64 MiB is an error (binary data in a
+//! text file), not a reason to hold the file in memory. Tokens are separated by any whitespace,
+//! Unicode included (a no-break space). Numbers are read in the same pass that finds the end of
+//! their token: floats by `fast-float2`'s partial parse (the values `str::parse` gives; it still
+//! reads the tokens `fast-float2` refuses), integers of fewer than eight digits eight bytes at
+//! once (SWAR), longer ones digit by digit. Called from a rayon worker, a reader parses its
+//! blocks on the calling thread, without overlap, rather than wait on the pool it would starve.
 
 use std::io::BufRead;
 

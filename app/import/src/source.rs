@@ -5,6 +5,16 @@
 //! memory (`face_vertex_limit`); larger meshes are streamed as point clouds and their normals are
 //! estimated by the builder. Non-finite coordinates are an error naming the row, or are dropped
 //! and counted with `drop_invalid`.
+//!
+//! A mesh's faces give each vertex an area-weighted normal, a radius at least the circumradius of
+//! its triangles (so the splats cover the mesh without holes) and a spacing, the side of a third
+//! of its triangles' area (so a mesh needs no neighbour search). When the vertices come first and
+//! bring no normals (the common layout), each triangle is applied as it is read, its terms summed
+//! into its vertices' own fields, and never kept; otherwise the triangles are kept and applied
+//! once every vertex is there, in parallel by vertex range, each range taking its triangles in
+//! file order, so both ways give the same values. A dropped vertex keeps its place, so the face
+//! indices after it stay right; its triangles give nothing to their other vertices. A gzip'd file
+//! is inflated a few 1 MiB blocks ahead, on a thread of its own (`ReadAhead`).
 
 use crate::lines::{Stop, Tokens, parse_i64};
 use crate::ply::{self, PlyError, PropKind};

@@ -1,6 +1,12 @@
 //! Writes a store file sequentially: nodes as they are completed (children before parents), then
 //! the index, then the header at offset 0. The file is written under a temporary name and
 //! renamed into place at the end, so an interrupted import never leaves a half store behind.
+//!
+//! [`NodeSink`] runs the writer on a thread of its own: nodes get their ids before they are made,
+//! are sent from any thread as they are completed and are written in id order while the build
+//! goes on. The bytes go through [`crate::direct::SequentialFile`]: around the page cache
+//! (`O_DIRECT`) where the file system allows it, each full 4 MiB block synced at once, so the
+//! final sync waits for one block's worth rather than the whole store's.
 
 use crate::direct::SequentialFile;
 use kiosk_core::scene::boxtree::box_count;

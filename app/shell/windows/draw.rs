@@ -96,7 +96,8 @@ pub struct ControllerView<'a> {
     pub zoom_bar: f64,
 }
 
-/// Draws the controller window (no model content, R8).
+/// Draws the controller window (no model content: the visitor looks at the wall; thesis
+/// requirement R8).
 pub fn controller(ctx: &egui::Context, v: &ControllerView<'_>) {
     let screen = ctx.content_rect();
     let p = ctx.layer_painter(egui::LayerId::background());

@@ -1,6 +1,7 @@
 //! One surface sample as stored on disk and uploaded to the GPU.
 //!
-//! Needs to be kept in sync with the vertex layout of the splat shader (a later renderer).
+//! Needs to be kept in sync with the splat shader (`shaders/splat.wgsl`) and the vertex layout
+//! the renderer declares for it (`app/render/src/lib.rs`).
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
