@@ -76,24 +76,28 @@ pub fn open_graph(
     let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
     let (graph, mut problems) =
         kiosk_core::graph::InfoGraph::from_xml(&text).with_context(|| format!("{}", path.display()))?;
-    let probe = |p: &str| -> Result<Option<(u32, u32)>, String> {
-        let f = dir.join(p);
-        if !f.exists() {
-            return Err("file not found".into());
-        }
-        let lower = p.to_ascii_lowercase();
-        if lower.ends_with(".png") || lower.ends_with(".jpg") || lower.ends_with(".jpeg") {
-            return image_size(&f).map(Some);
-        }
-        Ok(None)
-    };
-    problems.extend(graph.check_files(16.0 / 9.0, &probe));
+    problems.extend(graph.check_files(16.0 / 9.0, &|p: &str| probe_media(dir, p)));
     Ok(Some((graph, problems)))
 }
 
-/// Width and height of an image file (read from its header).
-fn image_size(path: &Path) -> Result<(u32, u32), String> {
-    image::image_dimensions(path).map_err(|e| e.to_string())
+/// Checks one media file a graph names (see [`crate::media::resolve`]): `Ok(Some((w, h)))` for
+/// an image (SVG drawings are drawn at 1280×720), `Ok(None)` for another file, or the reason it
+/// cannot be used.
+pub fn probe_media(dir: &Path, rel: &str) -> Result<Option<(u32, u32)>, String> {
+    let f = crate::media::resolve(dir, rel)?;
+    let lower = rel.to_ascii_lowercase();
+    if lower.ends_with(".png") || lower.ends_with(".jpg") || lower.ends_with(".jpeg") {
+        let (w, h) = image::image_dimensions(&f).map_err(|e| e.to_string())?;
+        let max = crate::media::MAX_IMAGE_SIDE;
+        if w > max || h > max {
+            return Err(format!("{w}×{h} pixels, larger than {max} a side"));
+        }
+        return Ok(Some((w, h)));
+    }
+    if crate::media::is_svg(&f) {
+        return Ok(Some((1280, 720)));
+    }
+    Ok(None)
 }
 
 #[cfg(test)]

@@ -3,6 +3,7 @@
 
 pub mod exhibit;
 pub mod import;
+pub mod media;
 pub mod metrics;
 pub mod snapshot;
 pub mod synthetic;

@@ -124,7 +124,7 @@ impl Project {
                 .find(|c| self.graph.index_of(c).is_none())
                 .unwrap_or_default(),
         };
-        anyhow::ensure!(!id.is_empty(), "a node needs an id");
+        kiosk_core::graph::check_id(&id).map_err(|e| anyhow::anyhow!("node {e}"))?;
         anyhow::ensure!(self.graph.index_of(&id).is_none(), "a node '{id}' already exists");
         let thumbnail = match gpu {
             Some((gpu, renderer)) => {
@@ -179,7 +179,7 @@ impl Project {
     /// Attaches a narration file (relative to the exhibit) in a language.
     pub fn set_narration(&mut self, id: &str, lang: &str, rel: &str) -> anyhow::Result<()> {
         let i = self.index(id)?;
-        anyhow::ensure!(self.dir.join(rel).exists(), "narration {rel} not found in the exhibit");
+        kiosk::media::resolve(&self.dir, rel).map_err(|e| anyhow::anyhow!("narration {rel}: {e}"))?;
         let (lang, rel) = (lang.to_string(), rel.to_string());
         self.edit(|g| {
             g.nodes[i].narration.0.insert(lang, rel);
@@ -201,6 +201,7 @@ impl Project {
     /// Returns a warning when its aspect ratio differs from the view's.
     pub fn attach_overlay(&mut self, id: &str, lang: &str, source: &Path) -> anyhow::Result<Option<String>> {
         let i = self.index(id)?;
+        kiosk_core::graph::check_id(lang).map_err(|e| anyhow::anyhow!("language {e}"))?;
         let (w, h) = image::image_dimensions(source)
             .with_context(|| format!("{}: not a readable image", source.display()))?;
         let ext = source.extension().and_then(|e| e.to_str()).unwrap_or("png").to_ascii_lowercase();
@@ -293,18 +294,9 @@ impl Project {
     /// Every problem of the graph: structure and files.
     pub fn validate(&self) -> Vec<Problem> {
         let mut p = self.graph.check_structure();
-        let dir = self.dir.clone();
-        let probe = move |rel: &str| -> Result<Option<(u32, u32)>, String> {
-            let f = dir.join(rel);
-            if !f.exists() {
-                return Err("file not found".into());
-            }
-            match image::image_dimensions(&f) {
-                Ok(d) => Ok(Some(d)),
-                Err(_) => Ok(None),
-            }
-        };
-        p.extend(self.graph.check_files(VIEW_ASPECT, &probe));
+        p.extend(
+            self.graph.check_files(VIEW_ASPECT, &|rel: &str| kiosk::exhibit::probe_media(&self.dir, rel)),
+        );
         p
     }
 

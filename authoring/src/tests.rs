@@ -111,3 +111,24 @@ fn an_interrupted_save_keeps_the_previous_file() {
     assert_eq!(again.graph.nodes.len(), 1);
     assert_eq!(std::fs::read(dir.path().join("graph.xml")).expect("still there"), before);
 }
+
+#[test]
+fn ids_and_languages_that_would_name_files_outside_the_exhibit_are_refused() {
+    let dir = exhibit();
+    let (mut p, _) = Project::open(dir.path()).expect("open");
+    let (gpu, mut renderer) = kiosk::snapshot::offscreen().expect("a GPU adapter (lavapipe) is required");
+    let e = p
+        .capture(orbit(&p, 0.0), Some("../../escaped"), Some((&gpu, &mut renderer)))
+        .expect_err("an id with a path in it");
+    assert!(e.to_string().contains("letters, digits"), "{e}");
+    assert!(p.graph.nodes.is_empty());
+    let parent = dir.path().parent().expect("parent");
+    assert!(!parent.join("escaped.png").exists() && !dir.path().join("thumbs").exists());
+    let id = p.capture(orbit(&p, 0.0), Some("front"), None).expect("capture");
+    let png = dir.path().join("drawing.png");
+    image::RgbaImage::new(16, 9).save(&png).expect("png");
+    let e = p.attach_overlay(&id, "../../x", &png).expect_err("a language with a path in it");
+    assert!(e.to_string().contains("language"), "{e}");
+    let e = p.set_narration(&id, "en", "../bust.obj").expect_err("a narration outside the exhibit");
+    assert!(e.to_string().contains(".."), "{e}");
+}

@@ -254,6 +254,17 @@ fn broken_content_is_logged_once_and_the_rest_keeps_working() {
     let bytes = std::fs::read(&overlay).expect("overlay");
     std::fs::write(&overlay, &bytes[..bytes.len() / 3]).expect("truncate overlay");
     std::fs::remove_file(good.join("audio/intro-en.wav")).expect("remove narration");
+    // Paths that lead out of the exhibit, and a FIFO where an overlay should be: none is read
+    // (a FIFO would block the kiosk), each is reported once, the node keeps its other content.
+    std::fs::write(content.path().join("secret.png"), &bytes).expect("a file outside the exhibit");
+    let graph = good.join("graph.xml");
+    let xml = std::fs::read_to_string(&graph).expect("graph");
+    let xml =
+        xml.replacen("thumbs/intro.png", "../secret.png", 1).replacen("roi/intro.png", "/etc/hostname", 1);
+    std::fs::write(&graph, xml).expect("edit graph");
+    let fifo = good.join("overlays/intro-it.png");
+    std::fs::remove_file(&fifo).expect("remove overlay");
+    assert!(Command::new("mkfifo").arg(&fifo).status().expect("mkfifo").success());
     let broken = content.path().join("b-broken");
     std::fs::create_dir_all(&broken).expect("mkdir");
     std::fs::write(broken.join("model.obj"), "v 1 2 three\nf 1 2 9\n").expect("garbage model");
@@ -268,6 +279,9 @@ fn broken_content_is_logged_once_and_the_rest_keeps_working() {
     assert_eq!(count("b-broken"), 1, "the broken exhibit is reported once:\n{}", run.stderr);
     assert_eq!(count("intro-en.png"), 1, "the broken overlay is reported once:\n{}", run.stderr);
     assert_eq!(count("intro-en.wav"), 1, "the missing narration is reported once:\n{}", run.stderr);
+    assert_eq!(count("../secret.png"), 1, "a path out of the exhibit is reported once:\n{}", run.stderr);
+    assert_eq!(count("/etc/hostname"), 1, "an absolute path is reported once:\n{}", run.stderr);
+    assert_eq!(count("intro-it.png"), 1, "a FIFO overlay is reported once:\n{}", run.stderr);
     let displayed: Vec<&str> = run.trace.iter().filter_map(|f| f["explore"]["overlay"].as_str()).collect();
     assert!(displayed.contains(&"intro"), "the intro was displayed (without its drawing)");
     assert!(run.trace.iter().all(|f| f["model"] == 0), "the gallery holds only the good exhibit");

@@ -1,4 +1,4 @@
-//! The information graph (thesis 11.2–11.3.1; DESIGN §6): annotated views (nodes) and their
+//! The information graph (thesis 11.2–11.3.1): annotated views (nodes) and their
 //! dependencies (edges), read from and written to XML.
 //!
 //! Format (version 1), paths relative to the graph file; every text and media element may be
@@ -157,16 +157,17 @@ fn default_lang() -> String {
     "en".into()
 }
 
-fn one() -> f64 {
-    1.0
+fn one() -> String {
+    "1".into()
 }
 
 #[derive(Debug, Serialize, Deserialize)]
 struct RawNode {
     #[serde(rename = "@id")]
     id: String,
+    /// Read as text so that a bad value is that node's problem, not the whole file's.
     #[serde(rename = "@importance", default = "one")]
-    importance: f64,
+    importance: String,
     view: Option<RawView>,
     #[serde(rename = "title", default, skip_serializing_if = "Vec::is_empty")]
     titles: Vec<RawText>,
@@ -191,7 +192,7 @@ struct RawView {
     #[serde(rename = "@up")]
     up: String,
     #[serde(rename = "@fov")]
-    fov: f64,
+    fov: String,
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -227,7 +228,7 @@ struct RawEdge {
     #[serde(rename = "@to")]
     to: String,
     #[serde(rename = "@weight")]
-    weight: f64,
+    weight: String,
 }
 
 fn vec3(s: &str) -> Option<DVec3> {
@@ -241,6 +242,53 @@ fn fmt3(v: DVec3) -> String {
 
 fn per_language(items: impl Iterator<Item = (Option<String>, String)>, default: &str) -> PerLanguage {
     PerLanguage(items.map(|(l, v)| (l.unwrap_or_else(|| default.to_string()), v)).collect())
+}
+
+/// Longest node id, in bytes.
+pub const MAX_ID_LEN: usize = 64;
+/// Longest media path, in bytes.
+pub const MAX_PATH_LEN: usize = 512;
+/// Longest title or text, in bytes (a text longer than this is cut, with a warning).
+pub const MAX_TEXT_LEN: usize = 64 * 1024;
+
+/// Whether `id` may name a node: 1 to [`MAX_ID_LEN`] ASCII letters, digits, `-`, `_` or `.`, not
+/// starting with `.`. Ids name files (`thumbs/ID.png`), so nothing else is allowed.
+pub fn check_id(id: &str) -> Result<(), String> {
+    if id.is_empty() {
+        return Err("an id may not be empty".into());
+    }
+    if id.len() > MAX_ID_LEN {
+        return Err(format!("an id may have at most {MAX_ID_LEN} characters (this one has {})", id.len()));
+    }
+    if id.starts_with('.') || !id.bytes().all(|b| b.is_ascii_alphanumeric() || b"-_.".contains(&b)) {
+        return Err(format!(
+            "id {:?} may hold only letters, digits, '-', '_' and '.', and may not start with '.'",
+            id.chars().take(MAX_ID_LEN).collect::<String>()
+        ));
+    }
+    Ok(())
+}
+
+/// Whether `path` may name a media file of an exhibit: relative, with `/` between non-empty
+/// names, none of them `.` or `..`, no `\`, `:` or control character, at most
+/// [`MAX_PATH_LEN`] bytes. The shell also checks that the file it names, links resolved, lies
+/// inside the exhibit and is a regular file.
+pub fn check_media_path(path: &str) -> Result<(), String> {
+    let shown = || path.chars().take(80).collect::<String>();
+    if path.len() > MAX_PATH_LEN {
+        return Err(format!("path {:?}… is longer than {MAX_PATH_LEN} bytes", shown()));
+    }
+    if path.starts_with('/') || path.chars().any(|c| c == '\\' || c == ':' || c.is_control()) {
+        return Err(format!("path {:?} must be relative to the exhibit, with '/' between names", shown()));
+    }
+    if path.split('/').any(|c| c.is_empty() || c == "." || c == "..") {
+        return Err(format!("path {:?} may not contain empty, '.' or '..' names", shown()));
+    }
+    Ok(())
+}
+
+fn number(s: &str) -> Option<f64> {
+    s.trim().parse::<f64>().ok()
 }
 
 impl InfoGraph {
@@ -263,6 +311,10 @@ impl InfoGraph {
                 bad(None, "a node has an empty id; dropped".into(), true);
                 continue;
             }
+            if let Err(e) = check_id(&id) {
+                bad(None, format!("a node's {e}; dropped"), true);
+                continue;
+            }
             if !seen.insert(id.clone()) {
                 bad(Some(&id), "duplicate id; the later node is dropped".into(), true);
                 continue;
@@ -275,7 +327,11 @@ impl InfoGraph {
                 bad(Some(&id), "view eye/target/up must be three finite numbers each; dropped".into(), true);
                 continue;
             };
-            if (target - eye).length() <= 0.0 || !(v.fov > 0.0 && v.fov < std::f64::consts::PI) {
+            let Some(fov) = number(&v.fov) else {
+                bad(Some(&id), format!("view fov {:?} is not a number; dropped", v.fov), true);
+                continue;
+            };
+            if (target - eye).length() <= 0.0 || !(fov > 0.0 && fov < std::f64::consts::PI) {
                 bad(
                     Some(&id),
                     "view has eye = target or a field of view outside (0, π); dropped".into(),
@@ -283,12 +339,19 @@ impl InfoGraph {
                 );
                 continue;
             }
-            let mut view = Camera { eye, target, up, fov_y: v.fov };
+            let mut view = Camera { eye, target, up, fov_y: fov };
             // Keep an orthonormal up exactly as written (round trips), repair any other.
             if (up.length() - 1.0).abs() > 1e-9 || up.dot(view.forward()).abs() > 1e-9 {
                 view.up = orthonormal_up(view.forward(), up, DVec3::Y);
             }
-            let mut importance = n.importance;
+            let mut importance = number(&n.importance).unwrap_or_else(|| {
+                bad(
+                    Some(&id),
+                    format!("importance {:?} is not a number in [0, 1]; 1 used", n.importance),
+                    false,
+                );
+                1.0
+            });
             if !(0.0..=1.0).contains(&importance) {
                 bad(Some(&id), format!("importance {importance} outside [0, 1]; clamped"), false);
                 importance = if importance.is_nan() { 0.0 } else { importance.clamp(0.0, 1.0) };
@@ -305,16 +368,54 @@ impl InfoGraph {
                     None
                 }
             };
+            // Media paths must stay inside the exhibit; a bad one is left out (the node stays).
+            let mut media = |what: &str, src: String| match check_media_path(&src) {
+                Ok(()) => Some(src),
+                Err(e) => {
+                    bad(Some(&id), format!("{what}: {e}; ignored"), false);
+                    None
+                }
+            };
+            let files =
+                |what: &str, list: Vec<RawFile>, media: &mut dyn FnMut(&str, String) -> Option<String>| {
+                    let items: Vec<_> =
+                        list.into_iter().filter_map(|f| Some((f.lang, media(what, f.src)?))).collect();
+                    per_language(items.into_iter(), &lang)
+                };
+            let overlay = files("overlay", n.overlays, &mut media);
+            let narration = files("narration", n.narrations, &mut media);
+            let thumbnail = n.thumbnail.and_then(|f| media("thumbnail", f.src));
+            let roi_mask = n.roi.and_then(|r| r.mask).and_then(|m| media("roi mask", m));
+            let mut text = |what: &str, list: Vec<RawText>| {
+                let items: Vec<_> = list
+                    .into_iter()
+                    .map(|t| {
+                        let mut v = t.text.trim().to_string();
+                        if v.len() > MAX_TEXT_LEN {
+                            let mut end = MAX_TEXT_LEN;
+                            while !v.is_char_boundary(end) {
+                                end -= 1;
+                            }
+                            v.truncate(end);
+                            bad(Some(&id), format!("{what} longer than {MAX_TEXT_LEN} bytes; cut"), false);
+                        }
+                        (t.lang, v)
+                    })
+                    .collect();
+                per_language(items.into_iter(), &lang)
+            };
+            let title = text("title", n.titles);
+            let text = text("text", n.texts);
             nodes.push(Node {
                 id,
                 view,
                 importance,
-                title: per_language(n.titles.into_iter().map(|t| (t.lang, t.text.trim().to_string())), &lang),
-                text: per_language(n.texts.into_iter().map(|t| (t.lang, t.text.trim().to_string())), &lang),
-                overlay: per_language(n.overlays.into_iter().map(|f| (f.lang, f.src)), &lang),
-                narration: per_language(n.narrations.into_iter().map(|f| (f.lang, f.src)), &lang),
-                thumbnail: n.thumbnail.map(|f| f.src),
-                roi_mask: n.roi.and_then(|r| r.mask),
+                title,
+                text,
+                overlay,
+                narration,
+                thumbnail,
+                roi_mask,
                 roi_bbox,
             });
         }
@@ -332,10 +433,14 @@ impl InfoGraph {
                 );
                 continue;
             };
-            if !(0.0..=1.0).contains(&e.weight) {
+            let weight = number(&e.weight).unwrap_or(f64::NAN);
+            if !(0.0..=1.0).contains(&weight) {
                 bad(
                     Some(&e.to),
-                    format!("edge {} → {} has weight {} outside [0, 1]; dropped", e.from, e.to, e.weight),
+                    format!(
+                        "edge {} → {} has weight {:?}, not a number in [0, 1]; dropped",
+                        e.from, e.to, e.weight
+                    ),
                     true,
                 );
                 continue;
@@ -348,7 +453,7 @@ impl InfoGraph {
                 bad(Some(&e.to), format!("duplicate edge {} → {}; the later is dropped", e.from, e.to), true);
                 continue;
             }
-            edges.push(Edge { from, to, weight: e.weight });
+            edges.push(Edge { from, to, weight });
         }
         let graph = Self { default_lang: lang, nodes, edges };
         problems.extend(graph.check_structure());
@@ -453,12 +558,12 @@ impl InfoGraph {
                 .iter()
                 .map(|n| RawNode {
                     id: n.id.clone(),
-                    importance: n.importance,
+                    importance: n.importance.to_string(),
                     view: Some(RawView {
                         eye: fmt3(n.view.eye),
                         target: fmt3(n.view.target),
                         up: fmt3(n.view.up),
-                        fov: n.view.fov_y,
+                        fov: n.view.fov_y.to_string(),
                     }),
                     titles: texts(&n.title),
                     texts: texts(&n.text),
@@ -478,7 +583,7 @@ impl InfoGraph {
                 .map(|e| RawEdge {
                     from: self.nodes[e.from].id.clone(),
                     to: self.nodes[e.to].id.clone(),
-                    weight: e.weight,
+                    weight: e.weight.to_string(),
                 })
                 .collect(),
         };
@@ -533,6 +638,61 @@ mod tests {
     }
 
     #[test]
+    fn a_value_that_is_not_a_number_is_that_nodes_problem() {
+        let xml = r#"<infograph version="1">
+  <node id="a" importance="high"><view eye="0 0 1" target="0 0 0" up="0 1 0" fov="0.8"/></node>
+  <node id="b"><view eye="0 0 1" target="0 0 0" up="0 1 0" fov="wide"/></node>
+  <node id="c"><view eye="0 0 1" target="0 0 0" up="0 1 0" fov="0.8"/></node>
+  <edge from="a" to="c" weight="strong"/>
+</infograph>"#;
+        let (g, problems) = InfoGraph::from_xml(xml).expect("one bad value does not drop the story");
+        let text: Vec<String> = problems.iter().map(ToString::to_string).collect();
+        let has = |s: &str| text.iter().any(|t| t.contains(s));
+        assert_eq!(g.nodes.iter().map(|n| n.id.as_str()).collect::<Vec<_>>(), ["a", "c"], "{text:?}");
+        assert!(has("node 'a': importance \"high\" is not a number"), "{text:?}");
+        assert_eq!(g.nodes[0].importance, 1.0);
+        assert!(has("node 'b': view fov \"wide\" is not a number; dropped"), "{text:?}");
+        assert!(has("edge a → c has weight \"strong\""), "{text:?}");
+        assert!(g.edges.is_empty());
+    }
+
+    #[test]
+    fn ids_and_media_paths_stay_inside_the_exhibit() {
+        let long = "x".repeat(1 << 20);
+        let xml = format!(
+            r#"<infograph version="1">
+  <node id="../../escaped"><view eye="0 0 1" target="0 0 0" up="0 1 0" fov="0.8"/></node>
+  <node id="{long}"><view eye="0 0 1" target="0 0 0" up="0 1 0" fov="0.8"/></node>
+  <node id="ok">
+    <view eye="0 0 1" target="0 0 0" up="0 1 0" fov="0.8"/>
+    <overlay lang="en" src="/tmp/x.png"/>
+    <overlay lang="it" src="overlays/ok it.png"/>
+    <narration src="../../../etc/shadow"/>
+    <thumbnail src="thumbs/./ok.png"/>
+    <roi mask="C:\\roi.png"/>
+  </node>
+</infograph>"#
+        );
+        let (g, problems) = InfoGraph::from_xml(&xml).expect("readable");
+        let text: Vec<String> = problems.iter().map(ToString::to_string).collect();
+        assert_eq!(g.nodes.len(), 1, "{text:?}");
+        let n = &g.nodes[0];
+        assert_eq!(n.id, "ok");
+        assert_eq!(n.overlay.0.len(), 1, "only the relative overlay is kept");
+        assert_eq!(n.overlay.0["it"], "overlays/ok it.png");
+        assert!(n.narration.is_empty() && n.thumbnail.is_none() && n.roi_mask.is_none(), "{n:?}");
+        assert_eq!(problems.iter().filter(|p| p.dropped).count(), 2, "{text:?}");
+        assert!(text.iter().all(|t| t.len() < 400), "problems stay short: {text:?}");
+        assert!(check_id("view-1.b_2").is_ok());
+        for bad in ["", ".hidden", "a/b", "a b", "é"] {
+            assert!(check_id(bad).is_err(), "{bad:?}");
+        }
+        for bad in ["/abs", "a//b", "a/../b", "..", "a\\b", "c:x", "a\nb", "a/"] {
+            assert!(check_media_path(bad).is_err(), "{bad:?}");
+        }
+    }
+
+    #[test]
     fn problems_name_the_node_and_keep_the_rest() {
         let xml = r#"<infograph version="1">
   <node id="a"><view eye="0 0 1" target="0 0 0" up="0 1 0" fov="0.8"/></node>
@@ -554,7 +714,7 @@ mod tests {
         assert!(has("node 'b': importance 3 outside [0, 1]"));
         assert!(has("node 'e': view eye/target/up"));
         assert!(has("node 'zzz': edge a → zzz names an unknown node"));
-        assert!(has("node 'b': edge a → b has weight 1.5 outside [0, 1]"));
+        assert!(has("node 'b': edge a → b has weight \"1.5\", not a number in [0, 1]"), "{text:?}");
         assert!(has("node 'c': can never be shown"));
         assert!(has("node 'd': can never be shown"));
         let err = InfoGraph::from_xml("<nope/>").map(|_| ()).expect_err("not a graph");

@@ -586,12 +586,12 @@ impl Running {
                 let Some(ex) = exhibits.get(*model) else { return };
                 let Some(g) = ex.graph.as_ref() else { return };
                 match g.nodes.get(*node).and_then(|n| n.narration.get(lang, &g.default_lang)) {
-                    // A missing file was reported with the graph's problems when it loaded.
-                    Some(file) if ex.dir.join(file).exists() => {
+                    Some(file) => match media(&mut self.reported, &ex.dir, file) {
                         // A broken file is logged once by the narrator; captions still show.
-                        let _ = self.narrator.play(&ex.dir.join(file));
-                    }
-                    _ => self.narrator.stop(),
+                        Some(path) => drop(self.narrator.play(&path)),
+                        None => self.narrator.stop(),
+                    },
+                    None => self.narrator.stop(),
                 }
             }
             KioskEffect::StopNarration => self.narrator.stop(),
@@ -599,9 +599,7 @@ impl Running {
     }
 
     fn report(&mut self, what: &str, e: &dyn std::fmt::Display) {
-        if self.reported.insert(format!("{what}: {e}")) {
-            tracing::error!("{what}: {e}");
-        }
+        report_once(&mut self.reported, what, e);
     }
 
     /// Renders both windows' canvases and presents them.
@@ -722,7 +720,9 @@ impl Running {
             let n = &g.nodes[node];
             let alpha = ((t - since) / 0.5).clamp(0.0, 1.0) as f32;
             if let Some(file) = n.overlay.get(&lang, &g.default_lang) {
-                overlay = self.proj_painter.image(&ex.dir.join(file)).map(|t| (t, alpha));
+                overlay = media(&mut self.reported, &ex.dir, file)
+                    .and_then(|path| self.proj_painter.image(&path))
+                    .map(|t| (t, alpha));
             }
             caption = Some((
                 n.title.get(&lang, &g.default_lang).unwrap_or(&n.id).to_string(),
@@ -774,11 +774,13 @@ impl Running {
     fn thumbnail(&mut self, ex: &Exhibit, node: usize) -> Option<egui::TextureHandle> {
         let g = ex.graph.as_ref()?;
         let n = g.nodes.get(node)?;
-        let key = match &n.thumbnail {
-            Some(f) => ex.dir.join(f),
-            None => ex.dir.join(format!("#render-{}", n.id)),
-        };
-        if self.proj_painter.has_image(&key) || (n.thumbnail.is_some() && key.exists()) {
+        let file = n.thumbnail.as_deref().and_then(|f| media(&mut self.reported, &ex.dir, f));
+        if let Some(path) = &file {
+            return self.proj_painter.image(path);
+        }
+        // No usable file: a render of the node's view, cached under a key no file can have.
+        let key = ex.dir.join(format!("#render-{}", n.id));
+        if self.proj_painter.has_image(&key) {
             return self.proj_painter.image(&key);
         }
         let size = (256, 144);
@@ -812,7 +814,8 @@ impl Running {
         let thumb = ex.and_then(|e| {
             let g = e.graph.as_ref()?;
             let f = g.nodes.first()?.thumbnail.as_ref()?;
-            self.ctrl_painter.image(&e.dir.join(f))
+            let path = media(&mut self.reported, &e.dir, f)?;
+            self.ctrl_painter.image(&path)
         });
         let caption = self.kiosk.narrating().and_then(|(m, node)| {
             let g = exhibits.get(m)?.graph.as_ref()?;
@@ -847,5 +850,27 @@ impl Running {
             tracing::info!("screenshot {}", path.display());
         }
         Ok(())
+    }
+}
+
+/// Logs an error once (a kiosk draws 60 frames a second).
+fn report_once(reported: &mut HashSet<String>, what: &str, e: &dyn std::fmt::Display) {
+    if reported.insert(format!("{what}: {e}")) {
+        tracing::error!("{what}: {e}");
+    }
+}
+
+/// The file a graph's media path names, confined to the exhibit ([`crate::media::resolve`]). A
+/// path that cannot be used was reported with the graph's problems when it loaded (by the same
+/// check), so it is only noted here, once, at debug level; its node's other content still shows.
+fn media(reported: &mut HashSet<String>, dir: &Path, rel: &str) -> Option<PathBuf> {
+    match crate::media::resolve(dir, rel) {
+        Ok(p) => Some(p),
+        Err(e) => {
+            if reported.insert(format!("media {}: {rel}: {e}", dir.display())) {
+                tracing::debug!("{}: {rel}: {e}; not used", dir.display());
+            }
+            None
+        }
     }
 }

@@ -42,12 +42,10 @@ impl Painter {
         if let Some(t) = self.images.get(path) {
             return t.clone();
         }
-        let loaded = match image::open(path) {
-            Ok(img) => Some(self.texture(&path.display().to_string(), &img.to_rgba8())),
-            // A missing file of the graph was reported with the graph's problems when it loaded.
-            Err(_) if !path.exists() => None,
+        let loaded = match crate::media::read_image(path) {
+            Ok(img) => Some(self.texture(&path.display().to_string(), &img)),
             Err(e) => {
-                tracing::warn!("image {}: {e}; not shown", path.display());
+                tracing::warn!("image {e}; not shown");
                 None
             }
         };

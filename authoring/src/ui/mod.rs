@@ -250,6 +250,10 @@ impl AuthorApp {
     /// Copies `self.narration_file` into `audio/` and attaches it in the current language.
     pub fn attach_narration(&mut self) {
         let Some(id) = self.selected.clone() else { return };
+        if let Err(e) = kiosk_core::graph::check_id(&self.lang) {
+            self.say(format!("error: language {e}"));
+            return;
+        }
         let source = PathBuf::from(self.narration_file.trim());
         let ext = source.extension().and_then(|e| e.to_str()).unwrap_or("wav").to_ascii_lowercase();
         let rel = format!("audio/{id}-{}.{ext}", self.lang);
@@ -852,24 +856,7 @@ impl AuthorApp {
 }
 
 /// Renders an SVG drawing (curators draw overlays in vector tools) to an RGBA image at the
-/// view's size (1280×720), fitted and centred.
+/// view's size (1280×720), fitted and centred, reading no other file.
 pub fn svg_to_png(path: &Path) -> anyhow::Result<image::RgbaImage> {
-    let data = std::fs::read(path).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
-    let tree = resvg::usvg::Tree::from_data(&data, &resvg::usvg::Options::default())
-        .map_err(|e| anyhow::anyhow!("{}: not a valid SVG: {e}", path.display()))?;
-    let (w, h) = (1280u32, 720u32);
-    let mut pixmap = resvg::tiny_skia::Pixmap::new(w, h).ok_or_else(|| anyhow::anyhow!("cannot allocate"))?;
-    let size = tree.size();
-    let scale = (w as f32 / size.width()).min(h as f32 / size.height());
-    let dx = (w as f32 - size.width() * scale) * 0.5;
-    let dy = (h as f32 - size.height() * scale) * 0.5;
-    let transform = resvg::tiny_skia::Transform::from_row(scale, 0.0, 0.0, scale, dx, dy);
-    resvg::render(&tree, transform, &mut pixmap.as_mut());
-    // tiny-skia stores premultiplied alpha; PNG overlays are straight alpha.
-    let mut rgba = Vec::with_capacity((w * h * 4) as usize);
-    for px in pixmap.pixels() {
-        let c = px.demultiply();
-        rgba.extend_from_slice(&[c.red(), c.green(), c.blue(), c.alpha()]);
-    }
-    image::RgbaImage::from_raw(w, h, rgba).ok_or_else(|| anyhow::anyhow!("size mismatch"))
+    kiosk::media::read_image(path).map_err(anyhow::Error::msg)
 }
