@@ -2,7 +2,7 @@
 //! (`*.ply`, `*.ply.gz`, `*.obj`) that is imported on first use into a cache.
 
 use crate::MappedStore;
-use crate::import::{ImportOptions, import};
+use crate::import::{ImportOptions, OutputLock, import_locked};
 use anyhow::Context;
 use std::path::{Path, PathBuf};
 
@@ -35,14 +35,30 @@ pub fn open_model(dir: &Path) -> anyhow::Result<MappedStore> {
     }
     let options = ImportOptions::default();
     let name = cache_name(&file, &options, kiosk_import::BUILDER_REVISION)?;
-    let cache = std::env::temp_dir().join("isokiosk-cache");
-    std::fs::create_dir_all(&cache)?;
+    let cache = cache_dir();
+    std::fs::create_dir_all(&cache).with_context(|| format!("cannot create the cache {}", cache.display()))?;
     let store = cache.join(name);
     if let Ok(s) = crate::open_store(&store) {
         return Ok(s);
     }
-    import(&file, &store, &options)?;
+    // Another kiosk or replay may be importing the same scan: wait for it, then use its store.
+    let lock = OutputLock::acquire(&store)?;
+    if let Ok(s) = crate::open_store(&store) {
+        return Ok(s);
+    }
+    import_locked(&file, &lock, &options)?;
     crate::open_store(&store)
+}
+
+/// Where stores imported from scans are kept across restarts (a reboot must not cost a
+/// billion-point import): `$ISOKIOSK_CACHE`, else `$XDG_CACHE_HOME/isokiosk`, else
+/// `~/.cache/isokiosk`, else the temporary directory.
+pub fn cache_dir() -> PathBuf {
+    let var = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+    var("ISOKIOSK_CACHE")
+        .or_else(|| var("XDG_CACHE_HOME").map(|d| d.join("isokiosk")))
+        .or_else(|| var("HOME").map(|d| d.join(".cache/isokiosk")))
+        .unwrap_or_else(|| std::env::temp_dir().join("isokiosk-cache"))
 }
 
 /// The file name of the store cached from the scan `file`: its name and a hash of its path, size

@@ -1,9 +1,17 @@
 //! `kiosk import`: scan file → store, with a progress bar and a summary.
+//!
+//! An import works in a directory of its own beside the output (`.NAME.import-PID/`: the
+//! builder's spill files and the partial store), under an exclusive lock on `.NAME.lock`: a second
+//! import to the same output (another `kiosk import`, or two kiosks filling the same cache) waits
+//! for the first and never shares its files. The directory is renamed into place and removed when
+//! the store is done, removed on an error, on Ctrl+C and on SIGTERM; one left by a killed process
+//! is removed by the next import to that output, which holds the lock.
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use kiosk_import::{BuildParams, BuildSummary, Builder, ReadOptions, Stage, source};
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::time::Instant;
 
 /// Options of an import.
@@ -60,18 +68,147 @@ fn bar(progress: bool) -> ProgressBar {
     pb
 }
 
-/// Imports a scan file into a store.
+/// Imports a scan file into a store (waiting for any other import to the same output).
 pub fn import(scan: &Path, out: &Path, opts: &ImportOptions) -> anyhow::Result<ImportReport> {
+    let lock = OutputLock::acquire(out)?;
+    import_locked(scan, &lock, opts)
+}
+
+/// Imports a scan file into the output that `lock` holds.
+pub fn import_locked(scan: &Path, lock: &OutputLock, opts: &ImportOptions) -> anyhow::Result<ImportReport> {
     let start = Instant::now();
-    let tmp_dir = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let mut builder = Builder::new(opts.build, tmp_dir)?;
+    check_input(scan, &lock.out)?;
+    let work = WorkDir::create(&lock.out)?;
+    let mut builder = Builder::new(opts.build, &work.path)?;
     let pb = bar(opts.progress);
     pb.set_message("reading");
     let report = source::read_file(scan, &opts.read, &mut Feed { builder: &mut builder, pb: &pb, read: 0 })
         .with_context(|| format!("{}", scan.display()))?;
-    let summary = build(builder, out, &pb)?;
+    let staged = work.path.join("store.kstore");
+    let summary = build(builder, &staged, &pb).with_context(|| format!("building {}", lock.out.display()))?;
+    std::fs::rename(&staged, &lock.out).with_context(|| format!("cannot write {}", lock.out.display()))?;
+    drop(work);
     pb.finish_and_clear();
     Ok(ImportReport { build: summary, warnings: report.warnings, seconds: start.elapsed().as_secs_f64() })
+}
+
+/// Refuses an import that would overwrite its own input, or whose input is already a store.
+fn check_input(scan: &Path, out: &Path) -> anyhow::Result<()> {
+    if let (Ok(a), Ok(b)) = (scan.canonicalize(), out.canonicalize()) {
+        anyhow::ensure!(a != b, "{}: the output is the input; choose another output file", out.display());
+    }
+    // Only a regular file is peeked at (reading a pipe would take its bytes from the reader).
+    let mut magic = [0u8; 8];
+    let is_store = std::fs::metadata(scan).is_ok_and(|m| m.is_file())
+        && std::fs::File::open(scan)
+            .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut magic))
+            .is_ok_and(|()| magic == kiosk_core::scene::store::MAGIC);
+    anyhow::ensure!(
+        !is_store,
+        "{} is already a store (kiosk import reads scans: PLY, .ply.gz, OBJ); open it directly or check it \
+         with `kiosk verify`",
+        scan.display()
+    );
+    Ok(())
+}
+
+/// An exclusive lock on an output file (on `.NAME.lock` beside it), held until dropped.
+pub struct OutputLock {
+    out: PathBuf,
+    _file: std::fs::File,
+}
+
+impl OutputLock {
+    /// Locks `out`, waiting (with a message in the log) while another process holds it, then
+    /// removes what interrupted imports to it left behind.
+    pub fn acquire(out: &Path) -> anyhow::Result<Self> {
+        let (dir, name) = split(out)?;
+        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        let path = dir.join(format!(".{name}.lock"));
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&path)
+            .with_context(|| format!("cannot create the lock {}", path.display()))?;
+        match file.try_lock() {
+            Ok(()) => {}
+            Err(std::fs::TryLockError::WouldBlock) => {
+                tracing::info!("{}: another import is writing it; waiting", out.display());
+                file.lock().with_context(|| format!("cannot lock {}", path.display()))?;
+            }
+            Err(std::fs::TryLockError::Error(e)) => {
+                return Err(e).with_context(|| format!("cannot lock {}", path.display()));
+            }
+        }
+        // Holding the lock, nobody else is importing to `out`: any work directory is stale.
+        let prefix = format!(".{name}.import-");
+        for entry in std::fs::read_dir(&dir).into_iter().flatten().flatten() {
+            let stale = entry.file_name().to_str().is_some_and(|n| n.starts_with(&prefix));
+            if stale && std::fs::remove_dir_all(entry.path()).is_ok() {
+                tracing::info!("removed {}, left by an interrupted import", entry.path().display());
+            }
+        }
+        Ok(Self { out: out.to_path_buf(), _file: file })
+    }
+
+    /// The output it locks.
+    pub fn path(&self) -> &Path {
+        &self.out
+    }
+}
+
+/// An output's directory and file name.
+fn split(out: &Path) -> anyhow::Result<(PathBuf, String)> {
+    let name = out
+        .file_name()
+        .and_then(|n| n.to_str())
+        .with_context(|| format!("{}: not a file name", out.display()))?;
+    let dir = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    Ok((dir.to_path_buf(), name.to_string()))
+}
+
+/// Work directories of the imports running in this process, removed by the signal handler.
+static ACTIVE: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// The directory an import works in; removed with everything in it when dropped.
+struct WorkDir {
+    path: PathBuf,
+}
+
+impl WorkDir {
+    fn create(out: &Path) -> anyhow::Result<Self> {
+        let (dir, name) = split(out)?;
+        let path = dir.join(format!(".{name}.import-{}", std::process::id()));
+        std::fs::create_dir_all(&path).with_context(|| format!("cannot create {}", path.display()))?;
+        install_signal_cleanup();
+        ACTIVE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(path.clone());
+        Ok(Self { path })
+    }
+}
+
+impl Drop for WorkDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.path);
+        ACTIVE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).retain(|p| p != &self.path);
+    }
+}
+
+/// On Ctrl+C or SIGTERM: removes the work directories of running imports, then exits (status
+/// 130). Installed once per process, at the first import.
+fn install_signal_cleanup() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let installed = ctrlc::set_handler(|| {
+            for dir in ACTIVE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).iter() {
+                let _ = std::fs::remove_dir_all(dir);
+            }
+            std::process::exit(130);
+        });
+        if let Err(e) = installed {
+            tracing::warn!("cannot clean up imports on signals: {e}");
+        }
+    });
 }
 
 /// The builder fed by a reader, with the points read on the progress bar.

