@@ -225,6 +225,7 @@ fn main() -> anyhow::Result<()> {
                 (None, None) => kiosk_core::replay::initial_camera(&store, 0.8, glam::DVec3::Y),
             };
             let (gpu, mut renderer) = kiosk::snapshot::offscreen()?;
+            gpu.check_size(size).with_context(|| format!("--size {}x{}", size.0, size.1))?;
             let settings = kiosk_render::RenderSettings {
                 mode: if points { kiosk_render::SplatMode::Points } else { kiosk_render::SplatMode::Splats },
                 edl_strength: edl,

@@ -270,3 +270,32 @@ fn one_renderer_switches_between_models() {
     let a2 = render(&bust().store, &start(&bust().store), size, &s);
     assert!(ssim(&a1, &a2) > 0.999);
 }
+
+#[test]
+fn an_image_larger_than_the_device_allows_is_a_clear_error() {
+    let guard = gpu().lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let (gpu, _) = &*guard;
+    assert!(gpu.check_size((1280, 720)).is_ok());
+    let side = gpu.device.limits().max_texture_dimension_2d;
+    let e = gpu.check_size((side + 1, 100)).expect_err("wider than any texture").to_string();
+    assert!(e.contains(&format!("{}×100", side + 1)) && e.contains("pixels a side"), "{e}");
+    drop(guard);
+    // Through the command line: the flag is named, and nothing is written.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("big.png");
+    let exhibit = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("content/demosthenes");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_kiosk"))
+        .args(["snapshot", "--size", "8200x8200", "-o"])
+        .arg(&out)
+        .arg("--exhibit")
+        .arg(&exhibit)
+        .env("RUST_BACKTRACE", "0")
+        .output()
+        .expect("run kiosk");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("--size 8200x8200") && err.contains("largest buffer"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}

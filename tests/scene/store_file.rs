@@ -145,3 +145,71 @@ fn import_of_a_broken_scan_names_file_row_and_line_once() {
     assert_eq!(err.matches(what).count(), 1, "{err}");
     assert!(!dir.path().join("broken.kstore").exists());
 }
+
+/// A store whose checksums were recomputed after its values were changed (crafted, or written
+/// by a broken tool): the values themselves are checked.
+#[test]
+fn crafted_values_with_valid_checksums_are_refused() {
+    use kiosk_core::scene::store::crc;
+    use kiosk_core::{NodeRecord, StoreHeader};
+    let bytes = store_bytes();
+    let header: StoreHeader = bytemuck::pod_read_unaligned(&bytes[..StoreHeader::LEN]);
+    let reseal = |b: &mut Vec<u8>, h: StoreHeader| {
+        let h = h.seal();
+        b[..StoreHeader::LEN].copy_from_slice(bytemuck::bytes_of(&h));
+    };
+    let corrupt = |b: &[u8]| match store_error(b) {
+        StoreError::Corrupt(why) => why,
+        StoreError::BadNode { why, .. } => why,
+        e => panic!("not a value error: {e}"),
+    };
+    // A NaN origin.
+    let mut b = bytes.clone();
+    reseal(&mut b, StoreHeader { origin: [f64::NAN, 0.0, 0.0], ..header });
+    assert!(corrupt(&b).contains("origin"));
+    // The root's box stretched to ±3e38, with the index checksum recomputed.
+    let size = std::mem::size_of::<NodeRecord>();
+    let at = header.index_offset as usize + header.root as usize * size;
+    let mut root: NodeRecord = bytemuck::pod_read_unaligned(&b[at..at + size]);
+    root.bbox_min = [-3e38; 3];
+    root.bbox_max = [3e38; 3];
+    let mut b = bytes.clone();
+    b[at..at + size].copy_from_slice(bytemuck::bytes_of(&root));
+    let index_len = header.node_count as usize * size;
+    let index_crc = crc(&b[header.index_offset as usize..header.index_offset as usize + index_len]);
+    reseal(&mut b, StoreHeader { index_crc, ..header });
+    assert!(corrupt(&b).contains("beyond"), "{}", corrupt(&b));
+    // A leaf's splat moved out of its box, with the node's checksum recomputed: `verify` finds it.
+    let s = open(&bytes).expect("opens");
+    let leaf = (0..s.nodes().len() as u32).find(|&id| s.node(id).is_leaf()).expect("a leaf");
+    let node = *s.node(leaf);
+    drop(s);
+    let mut b = bytes.clone();
+    let p = node.points_offset as usize;
+    b[p..p + 4].copy_from_slice(&(node.bbox_max[0] + 1.0).to_le_bytes());
+    let dir = tempfile::tempdir().expect("tmp");
+    let path = dir.path().join("moved.kstore");
+    std::fs::write(&path, &b).expect("write");
+    let crafted = kiosk::open_store(&path).expect("the index is untouched");
+    let mut h = crc32fast::Hasher::new();
+    h.update(bytemuck::cast_slice(crafted.splats(leaf)));
+    h.update(bytemuck::cast_slice(crafted.boxes(leaf)));
+    let data_crc = h.finalize();
+    drop(crafted);
+    let at = header.index_offset as usize + leaf as usize * size;
+    let mut rec: NodeRecord = bytemuck::pod_read_unaligned(&b[at..at + size]);
+    rec.data_crc = data_crc;
+    b[at..at + size].copy_from_slice(bytemuck::bytes_of(&rec));
+    let index_crc = crc(&b[header.index_offset as usize..header.index_offset as usize + index_len]);
+    reseal(&mut b, StoreHeader { index_crc, ..header });
+    std::fs::write(&path, &b).expect("write");
+    let crafted = kiosk::open_store(&path).expect("opens: only verification reads node data");
+    let e = crafted.verify_node(leaf).expect_err("verify checks values");
+    assert!(e.to_string().contains("outside the node's bounding box"), "{e}");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_kiosk"))
+        .arg("verify")
+        .arg(&path)
+        .output()
+        .expect("run");
+    assert!(!o.status.success(), "kiosk verify fails on it");
+}

@@ -52,6 +52,9 @@ pub enum RenderError {
     /// Reading back an image failed.
     #[error("cannot read the image back: {0}")]
     Readback(String),
+    /// An image size the device cannot draw or read back.
+    #[error("{0}")]
+    Size(String),
 }
 
 /// A GPU device and queue, with wgpu's errors collected.
@@ -103,6 +106,30 @@ impl Gpu {
             }
         }));
         Ok(Self { device, queue, adapter: adapter.get_info(), errors })
+    }
+
+    /// Whether this device can draw an image of `(w, h)` pixels and read it back: each side at
+    /// most its largest texture, the padded pixels within its largest buffer.
+    pub fn check_size(&self, (w, h): (u32, u32)) -> Result<(), RenderError> {
+        let limits = self.device.limits();
+        let side = limits.max_texture_dimension_2d;
+        if w == 0 || h == 0 || w > side || h > side {
+            return Err(RenderError::Size(format!(
+                "{w}×{h} pixels: this GPU draws 1 to {side} pixels a side"
+            )));
+        }
+        let row = u64::from(
+            (w * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT,
+        );
+        let bytes = row * u64::from(h);
+        if bytes > limits.max_buffer_size {
+            return Err(RenderError::Size(format!(
+                "{w}×{h} pixels: reading the image back takes {} MB, this GPU's largest buffer is {} MB",
+                bytes >> 20,
+                limits.max_buffer_size >> 20
+            )));
+        }
+        Ok(())
     }
 
     /// Waits until the GPU has finished all submitted work (for timing and tests).
@@ -604,6 +631,7 @@ impl Renderer {
         settings: &RenderSettings,
     ) -> Result<(image::RgbaImage, FrameStats), RenderError> {
         let (w, h) = (size.0.max(1), size.1.max(1));
+        gpu.check_size((w, h))?;
         let (texture, view) = self.offscreen_target(gpu, (w, h));
         let stats = self.render(gpu, store, nodes, camera, &view, (w, h), settings)?;
         let image = read_back(gpu, &texture, (w, h))?;

@@ -5,6 +5,10 @@
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
+/// Largest window side accepted in the configuration (the GPU may allow less; that is checked
+/// when the windows open).
+pub const MAX_WINDOW_SIDE: u32 = 16384;
+
 /// One window's placement.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
@@ -127,8 +131,11 @@ impl Config {
             if w.rotation % 90 != 0 || w.rotation >= 360 {
                 return Err(format!("[{name}] rotation = {}: must be 0, 90, 180 or 270", w.rotation));
             }
-            if w.size[0] == 0 || w.size[1] == 0 {
-                return Err(format!("[{name}] size = {:?}: must be positive", w.size));
+            if !(1..=MAX_WINDOW_SIDE).contains(&w.size[0]) || !(1..=MAX_WINDOW_SIDE).contains(&w.size[1]) {
+                return Err(format!(
+                    "[{name}] size = {:?}: each side must be 1 to {MAX_WINDOW_SIDE} pixels",
+                    w.size
+                ));
             }
         }
         if !(self.fov_deg > 1.0 && self.fov_deg < 170.0) {
@@ -209,5 +216,9 @@ mod tests {
         assert!(e.contains("line 1") || e.contains("fov_deg"), "{e}");
         let e = Config::parse("attract_after_secs = 100\nreset_after_secs = 50").expect_err("order");
         assert!(e.contains("attract"), "{e}");
+        for size in ["[100000, 100000]", "[20000, 100]", "[0, 720]"] {
+            let e = Config::parse(&format!("[projection]\nsize = {size}")).expect_err("size");
+            assert!(e.contains("[projection] size"), "{size}: {e}");
+        }
     }
 }

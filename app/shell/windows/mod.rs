@@ -270,6 +270,10 @@ impl App {
         .context("no GPU adapter for the windows")?;
         let gpu = Gpu::from_adapter(&adapter)?;
         tracing::info!("GPU: {} ({:?})", gpu.adapter.name, gpu.adapter.backend);
+        for (name, w) in [("projection", &cfg.projection), ("controller", &cfg.controller)] {
+            gpu.check_size((w.size[0], w.size[1]))
+                .with_context(|| format!("[{name}] size = {:?}", w.size))?;
+        }
         let projection = GpuWindow::new(&gpu, pw, ps, &adapter, cfg.projection.rotation)?;
         let controller = GpuWindow::new(&gpu, cw, cs, &adapter, cfg.controller.rotation)?;
         let format = projection.format();

@@ -21,6 +21,12 @@ use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, Vec3};
 
 /// First bytes of every store file.
+/// Largest model origin coordinate accepted (georeferenced coordinates reach ~10⁷ m).
+pub const MAX_ORIGIN: f64 = 1e12;
+/// Largest local coordinate accepted (f32 relative to the origin; beyond this a store is not
+/// a real model: an import centres its points on the origin).
+pub const MAX_LOCAL: f32 = 1e9;
+
 pub const MAGIC: [u8; 8] = *b"ISOKSTOR";
 /// The store version this build reads and writes.
 pub const VERSION: u32 = 1;
@@ -231,6 +237,13 @@ impl<B: AsRef<[u8]>> Store<B> {
         if n == 0 {
             return Err(StoreError::Corrupt("no nodes".into()));
         }
+        let origin = self.header.origin();
+        if !origin.is_finite() || origin.abs().max_element() > MAX_ORIGIN {
+            return Err(StoreError::Corrupt(format!(
+                "model origin {:?} is not a finite coordinate within ±{MAX_ORIGIN:e}",
+                self.header.origin
+            )));
+        }
         if u64::from(self.header.root) != n - 1 {
             return Err(StoreError::Corrupt("the root is not the last node".into()));
         }
@@ -250,8 +263,15 @@ impl<B: AsRef<[u8]>> Store<B> {
             if !in_file(node.points_offset, p_len) || !in_file(node.boxes_offset, b_len) {
                 return Err(bad("its data lies outside the file".into()));
             }
-            if !node.bbox().min.is_finite() || !node.bbox().max.is_finite() || node.bbox().is_empty() {
+            let bbox = node.bbox();
+            if !bbox.min.is_finite() || !bbox.max.is_finite() || bbox.is_empty() {
                 return Err(bad("invalid bounding box".into()));
+            }
+            if bbox.min.abs().max(bbox.max.abs()).max_element() > MAX_LOCAL {
+                return Err(bad(format!(
+                    "bounding box {:?}…{:?} reaches beyond ±{MAX_LOCAL:e} from the origin",
+                    node.bbox_min, node.bbox_max
+                )));
             }
             if !(node.subtree_radius_max.is_finite() && node.subtree_radius_max >= node.radius_max) {
                 return Err(bad("invalid radius bound".into()));
@@ -263,6 +283,10 @@ impl<B: AsRef<[u8]>> Store<B> {
                     for c in [a, b] {
                         if nodes[c as usize].parent != id32 {
                             return Err(bad(format!("child {c} does not name it as parent")));
+                        }
+                        let cb = nodes[c as usize].bbox();
+                        if !(cb.min.cmpge(bbox.min).all() && cb.max.cmple(bbox.max).all()) {
+                            return Err(bad(format!("child {c}'s bounding box is not inside its own")));
                         }
                     }
                 }
@@ -338,6 +362,18 @@ impl<B: AsRef<[u8]>> Store<B> {
             .position(|s| !Vec3::from_array(s.pos).is_finite() || !s.radius.is_finite() || s.radius < 0.0);
         if let Some(i) = bad_splat {
             return Err(StoreError::BadNode { node: id, why: format!("splat {i} is not finite") });
+        }
+        let node = self.node(id);
+        let bbox = node.bbox();
+        let outside = self.splats(id).iter().position(|s| {
+            let p = Vec3::from_array(s.pos);
+            !(p.cmpge(bbox.min).all() && p.cmple(bbox.max).all()) || s.radius > node.radius_max
+        });
+        if let Some(i) = outside {
+            return Err(StoreError::BadNode {
+                node: id,
+                why: format!("splat {i} lies outside the node's bounding box or radius bound"),
+            });
         }
         Ok(())
     }
