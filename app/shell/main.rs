@@ -54,6 +54,24 @@ struct RunArgs {
     /// Write the kiosk's trace (one JSON line per 60 Hz frame).
     #[arg(long)]
     trace: Option<PathBuf>,
+    /// With --record: replace an existing recording.
+    #[arg(long)]
+    force: bool,
+}
+
+/// Refuses to write `out` over one of the command's inputs, or (`--record`) over an existing
+/// file: a recording or a session is a museum's data.
+fn refuse_overwrite(out: &std::path::Path, inputs: &[&std::path::Path], flag: &str) -> anyhow::Result<()> {
+    if let Ok(o) = out.canonicalize() {
+        for i in inputs {
+            anyhow::ensure!(
+                i.canonicalize().is_ok_and(|i| i != o),
+                "{flag} {}: that is an input of this command; choose another file",
+                out.display()
+            );
+        }
+    }
+    Ok(())
 }
 
 fn run_kiosk(args: RunArgs) -> anyhow::Result<()> {
@@ -69,6 +87,18 @@ fn run_kiosk(args: RunArgs) -> anyhow::Result<()> {
         config.content = c;
     }
     anyhow::ensure!(args.speed.is_finite() && args.speed > 0.0, "--speed must be positive");
+    if let Some(r) = &args.record {
+        anyhow::ensure!(
+            args.force || !r.exists(),
+            "--record {}: the file exists (a recorded visit); choose another name or add --force to replace it",
+            r.display()
+        );
+    }
+    if let Some(t) = &args.trace {
+        let inputs: Vec<&std::path::Path> =
+            args.session.iter().chain(&args.record).map(|p| p.as_path()).collect();
+        refuse_overwrite(t, &inputs, "--trace")?;
+    }
     let session = match &args.session {
         Some(p) => {
             let text =
@@ -267,17 +297,35 @@ fn main() -> anyhow::Result<()> {
                     None
                 }
             };
-            let result = kiosk_core::replay::run_story(&store, &parsed, &settings, graph.as_ref());
-            std::fs::write(&trace, result.to_jsonl(settings.seed, settings.fps))
+            refuse_overwrite(&trace, &[&session], "--trace")?;
+            // The trace is streamed to its file: memory stays flat however long the session.
+            use std::io::Write;
+            let file = std::fs::File::create(&trace)
                 .with_context(|| format!("cannot write trace {}", trace.display()))?;
-            let s = &result.summary;
+            let mut out = std::io::BufWriter::new(file);
+            let mut written = out.write_all(
+                kiosk_core::replay::header_line(settings.controller.name(), settings.seed, settings.fps)
+                    .as_bytes(),
+            );
+            let mut min_distance = None;
+            let (_, s) =
+                kiosk_core::replay::run_story_with(&store, &parsed, &settings, graph.as_ref(), &mut |f| {
+                    min_distance.get_or_insert(f.min_distance);
+                    if written.is_ok() {
+                        written = out.write_all(f.to_line().as_bytes());
+                    }
+                });
+            written
+                .and_then(|()| out.write_all(kiosk_core::replay::summary_line(&s).as_bytes()))
+                .and_then(|()| out.flush())
+                .with_context(|| format!("cannot write trace {}", trace.display()))?;
             println!(
                 "{}: {} frames, {} collisions, closest approach {:.4} (minimum {:.4}), {} menu requests",
                 trace.display(),
                 s.frames,
                 s.collisions,
                 s.min_surface_distance,
-                result.frames.first().map_or(0.0, |f| f.min_distance),
+                min_distance.unwrap_or(0.0),
                 s.menu_requests
             );
         }

@@ -225,3 +225,52 @@ fn demo_exhibit_loads_and_plays(name: &str) {
     );
     assert_eq!(t.summary.collisions, 0, "{name}");
 }
+
+#[test]
+fn a_trace_never_replaces_its_session_and_a_recording_is_not_overwritten() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let exhibit = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("content/demosthenes");
+    let session = dir.path().join("visit.jsonl");
+    let text = kiosk_core::session::Script::new().tap(1, 0.5, 0.5).wait(0.5).session().to_jsonl();
+    std::fs::write(&session, &text).expect("session");
+    let kiosk = |args: &[&std::ffi::OsStr]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_kiosk"))
+            .args(args)
+            .env("RUST_BACKTRACE", "0")
+            .output()
+            .expect("run kiosk")
+    };
+    let s = session.as_os_str();
+    let o = kiosk(&[
+        "replay".as_ref(),
+        "--exhibit".as_ref(),
+        exhibit.as_os_str(),
+        "--session".as_ref(),
+        s,
+        "--trace".as_ref(),
+        s,
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--trace") && err.contains("input"), "{err}");
+    assert_eq!(std::fs::read_to_string(&session).expect("session"), text, "the session is untouched");
+    let o = kiosk(&["--record".as_ref(), s, "--windowed".as_ref()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--force"), "{err}");
+    assert_eq!(std::fs::read_to_string(&session).expect("session"), text, "the recording is untouched");
+    // A session beyond the longest allowed is refused with its line, before any frame is made.
+    let long = dir.path().join("long.jsonl");
+    std::fs::write(&long, format!("{text}{{\"t\":1e7,\"ev\":\"cancel\",\"id\":99,\"x\":0,\"y\":0}}\n"))
+        .expect("write");
+    let trace = dir.path().join("t.jsonl");
+    let o = kiosk(&[
+        "replay".as_ref(),
+        "--exhibit".as_ref(),
+        exhibit.as_os_str(),
+        "--session".as_ref(),
+        long.as_os_str(),
+        "--trace".as_ref(),
+        trace.as_os_str(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("longest session") && err.contains("line 3"), "{err}");
+}

@@ -25,6 +25,17 @@ pub enum ControllerKind {
     Acevit,
 }
 
+impl ControllerKind {
+    /// Its name in traces and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::IsoCam => "isocam",
+            Self::Trackball => "trackball",
+            Self::Acevit => "acevit",
+        }
+    }
+}
+
 impl std::str::FromStr for ControllerKind {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
@@ -174,19 +185,38 @@ struct HeaderLine<'a> {
     fps: f64,
 }
 
+/// A value as one line of JSON, with its newline.
+fn json_line(v: Result<String, serde_json::Error>) -> String {
+    let mut line = v.unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"));
+    line.push('\n');
+    line
+}
+
+/// The first line of a trace file.
+pub fn header_line(controller: &str, seed: u64, fps: f64) -> String {
+    json_line(serde_json::to_string(&HeaderLine { trace: 1, controller, seed, fps }))
+}
+
+/// The last line of a trace file.
+pub fn summary_line(summary: &Summary) -> String {
+    json_line(serde_json::to_string(&SummaryLine { summary }))
+}
+
+impl Frame {
+    /// The frame as a line of a trace file.
+    pub fn to_line(&self) -> String {
+        json_line(serde_json::to_string(self))
+    }
+}
+
 impl Trace {
     /// The trace in its file format (JSON Lines).
     pub fn to_jsonl(&self, seed: u64, fps: f64) -> String {
-        let mut out = String::new();
-        let mut push = |v: Result<String, serde_json::Error>| {
-            out.push_str(&v.unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}")));
-            out.push('\n');
-        };
-        push(serde_json::to_string(&HeaderLine { trace: 1, controller: self.controller, seed, fps }));
+        let mut out = header_line(self.controller, seed, fps);
         for f in &self.frames {
-            push(serde_json::to_string(f));
+            out.push_str(&f.to_line());
         }
-        push(serde_json::to_string(&SummaryLine { summary: &self.summary }));
+        out.push_str(&summary_line(&self.summary));
         out
     }
 }
@@ -234,18 +264,33 @@ pub fn run_story<B: AsRef<[u8]>>(
     settings: &ReplaySettings,
     graph: Option<&InfoGraph>,
 ) -> Trace {
+    let mut frames = Vec::new();
+    let (controller, summary) = run_story_with(store, session, settings, graph, &mut |f| frames.push(f));
+    Trace { controller, frames, summary }
+}
+
+/// Runs a session like [`run_story`], handing each frame to `frame` as it is made instead of
+/// keeping them (memory stays flat however long the session); returns the controller's name and
+/// the summary.
+pub fn run_story_with<B: AsRef<[u8]>>(
+    store: &Store<B>,
+    session: &Session,
+    settings: &ReplaySettings,
+    graph: Option<&InfoGraph>,
+    frame: &mut dyn FnMut(Frame),
+) -> (&'static str, Summary) {
     let mut explorer = Explorer::new(store, graph, settings, 0.0);
     let dt = 1.0 / settings.fps;
+    // Session times are bounded when parsed (`session::MAX_SESSION_SECS`).
     let frames = ((session.duration() + settings.tail_secs) * settings.fps).ceil() as u64 + 1;
     let mut next = 0usize;
-    let mut out = Vec::with_capacity(frames as usize);
     for k in 0..frames {
         let t = k as f64 * dt;
         while next < session.events.len() && session.events[next].t <= t + 1e-9 {
             explorer.touch(&session.events[next]);
             next += 1;
         }
-        out.push(explorer.step(store, graph, t).0);
+        frame(explorer.step(store, graph, t).0);
     }
-    Trace { controller: explorer.controller_name(), frames: out, summary: explorer.summary }
+    (explorer.controller_name(), explorer.summary)
 }

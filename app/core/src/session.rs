@@ -9,6 +9,9 @@ use serde::{Deserialize, Serialize};
 /// The session format version this build reads and writes.
 pub const SESSION_VERSION: u32 = 1;
 
+/// Latest event time of a session, in seconds (24 hours: a kiosk's day and more).
+pub const MAX_SESSION_SECS: f64 = 86_400.0;
+
 /// The optional first line.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct SessionHeader {
@@ -82,6 +85,12 @@ impl Session {
             let e: RawEvent = serde_json::from_value(value).map_err(|e| err(format!("bad event: {e}")))?;
             if !(e.t.is_finite() && e.t >= 0.0) {
                 return Err(err(format!("time {} is not a non-negative number", e.t)));
+            }
+            if e.t > MAX_SESSION_SECS {
+                return Err(err(format!(
+                    "time {} s is beyond the longest session, {MAX_SESSION_SECS} s (24 hours)",
+                    e.t
+                )));
             }
             if e.t < last_t {
                 return Err(err(format!("time {} goes back (previous event at {last_t})", e.t)));
@@ -230,5 +239,20 @@ mod tests {
             .expect_err("time goes back");
         assert_eq!(e.line, 3);
         assert!(Session::parse("not json").expect_err("junk").msg.contains("not a JSON object"));
+    }
+
+    #[test]
+    fn times_beyond_a_day_are_refused() {
+        let line = |t: &str| {
+            format!(
+                "{{\"t\":0,\"ev\":\"down\",\"id\":1,\"x\":0,\"y\":0}}\n{{\"t\":{t},\"ev\":\"up\",\"id\":1,\"x\":0,\"y\":0}}"
+            )
+        };
+        assert!(Session::parse(&line("86400")).is_ok(), "a whole day is a session");
+        for t in ["86400.5", "1e7", "1e308"] {
+            let e = Session::parse(&line(t)).expect_err("too long");
+            assert_eq!(e.line, 2, "{t}");
+            assert!(e.msg.contains("longest session"), "{t}: {}", e.msg);
+        }
     }
 }
