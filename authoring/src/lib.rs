@@ -34,12 +34,21 @@ pub struct Project {
     undo: Vec<InfoGraph>,
     redo: Vec<InfoGraph>,
     saved: InfoGraph,
+    /// The text of graph.xml as last read or written: saving writes over it, keeping what the
+    /// loader could not read (see [`InfoGraph::to_xml_over`]).
+    original: Option<String>,
 }
 
 impl Project {
     /// Opens an exhibit directory (creating an empty graph when it has none).
     pub fn open(dir: &Path) -> anyhow::Result<(Self, Vec<Problem>)> {
         let store = kiosk::exhibit::open_model(dir)?;
+        let graph_file = dir.join("graph.xml");
+        let original = match std::fs::read_to_string(&graph_file) {
+            Ok(text) => Some(text),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+            Err(e) => return Err(e).with_context(|| format!("cannot read {}", graph_file.display())),
+        };
         let (graph, problems) = match kiosk::exhibit::open_graph(dir)? {
             Some((g, p)) => (g, p),
             None => (InfoGraph { default_lang: "en".into(), ..InfoGraph::default() }, Vec::new()),
@@ -52,6 +61,7 @@ impl Project {
                 graph,
                 undo: Vec::new(),
                 redo: Vec::new(),
+                original,
             },
             problems,
         ))
@@ -300,18 +310,29 @@ impl Project {
         p
     }
 
+    /// The graph as it would be saved: over the file it was read from, so that comments,
+    /// unknown attributes and content the loader could not read are kept.
+    pub fn to_xml(&self) -> String {
+        match &self.original {
+            Some(original) => self.graph.to_xml_over(original).unwrap_or_else(|_| self.graph.to_xml()),
+            None => self.graph.to_xml(),
+        }
+    }
+
     /// Saves `graph.xml` atomically: a temporary file beside it, synced, renamed over it.
     pub fn save(&mut self) -> anyhow::Result<()> {
         let path = self.dir.join("graph.xml");
         let tmp = self.dir.join(".graph.xml.saving");
+        let xml = self.to_xml();
         {
             let mut f =
                 std::fs::File::create(&tmp).with_context(|| format!("cannot write {}", tmp.display()))?;
-            f.write_all(self.graph.to_xml().as_bytes())?;
+            f.write_all(xml.as_bytes())?;
             f.sync_all()?;
         }
         std::fs::rename(&tmp, &path).with_context(|| format!("cannot replace {}", path.display()))?;
         self.saved = self.graph.clone();
+        self.original = Some(xml);
         Ok(())
     }
 }

@@ -132,3 +132,37 @@ fn ids_and_languages_that_would_name_files_outside_the_exhibit_are_refused() {
     let e = p.set_narration(&id, "en", "../bust.obj").expect_err("a narration outside the exhibit");
     assert!(e.to_string().contains(".."), "{e}");
 }
+
+#[test]
+fn saving_without_edits_keeps_the_file_byte_for_byte_even_what_could_not_be_read() {
+    let dir = exhibit();
+    let curated = r#"<?xml version="1.0" encoding="UTF-8"?>
+<!-- kept by hand; the second node's fov is in degrees by mistake -->
+<infograph version="1" default-lang="en" curator="anna">
+  <node id="front" importance="high" colour="gold">
+    <view eye="0 0 5" target="0 0 0" up="0 1 0" fov="0.8"/>
+    <title lang="en">Front</title>
+  </node>
+  <node id="wide">
+    <view eye="0 0 5" target="0 0 0" up="0 1 0" fov="32"/>
+    <title lang="en">Wide</title>
+    <overlay lang="en" src="overlays/wide-en.png"/>
+  </node>
+  <edge from="front" to="wide" weight="1"/>
+</infograph>
+"#;
+    std::fs::write(dir.path().join("graph.xml"), curated).expect("write");
+    let (mut p, problems) = Project::open(dir.path()).expect("open");
+    assert!(problems.iter().any(|p| p.node.as_deref() == Some("wide") && p.dropped), "{problems:?}");
+    assert!(problems.iter().any(|p| p.node.as_deref() == Some("front") && p.msg.contains("\"high\"")));
+    assert_eq!(p.graph.nodes.len(), 1);
+    p.save().expect("save");
+    assert_eq!(std::fs::read_to_string(dir.path().join("graph.xml")).expect("read"), curated);
+    // An edit of the readable node keeps the unreadable one, its edge and the comment.
+    p.set_text("front", "en", "The front", "").expect("text");
+    p.save().expect("save");
+    let saved = std::fs::read_to_string(dir.path().join("graph.xml")).expect("read");
+    for kept in ["<!-- kept by hand", r#"fov="32""#, "overlays/wide-en.png", r#"to="wide""#, "The front"] {
+        assert!(saved.contains(kept), "lost {kept}:\n{saved}");
+    }
+}

@@ -211,3 +211,30 @@ fn copy_dir(from: &Path, to: &Path) {
         }
     }
 }
+
+#[test]
+fn an_edit_is_autosaved_without_input_and_never_over_a_crashed_sessions_autosave() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    copy_dir(&repo().join("content/demosthenes"), dir.path());
+    // A session that crashed left an autosave with a node renamed in its title.
+    let graph = std::fs::read_to_string(dir.path().join("graph.xml")).expect("graph");
+    let crashed = graph.replacen(">Demosthenes<", ">Demosthenes (unsaved)<", 1);
+    assert_ne!(crashed, graph);
+    let autosave = kiosk_author::ui::autosave_path(dir.path());
+    std::fs::write(&autosave, &crashed).expect("autosave");
+    let mut h = harness(dir.path());
+    let recovered = kiosk_author::ui::recovered_path(dir.path());
+    assert_eq!(std::fs::read_to_string(&recovered).expect("set aside"), crashed);
+    // An edit in this session, then no input: the tool asks to be woken for the autosave.
+    h.state_mut().project.set_importance("intro", 0.5).expect("edit");
+    h.run_steps(1);
+    let delay = h.output().viewport_output.get(&egui::ViewportId::ROOT).expect("root viewport").repaint_delay;
+    assert!(delay <= std::time::Duration::from_secs(30), "no wake-up for the autosave: {delay:?}");
+    h.state_mut().autosave();
+    assert!(autosave.exists(), "this session's autosave");
+    assert_eq!(std::fs::read_to_string(&recovered).expect("kept"), crashed, "the crashed autosave is kept");
+    click(&mut h, "Restore autosave");
+    let title = h.state().project.graph.nodes[0].title.0["en"].clone();
+    assert_eq!(title, "Demosthenes (unsaved)");
+    assert!(!recovered.exists(), "restored, so no longer offered");
+}

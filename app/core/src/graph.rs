@@ -542,50 +542,213 @@ impl InfoGraph {
         out
     }
 
-    /// Writes the graph as XML (version 1).
-    pub fn to_xml(&self) -> String {
+    fn raw_node(&self, n: &Node) -> RawNode {
         let texts = |p: &PerLanguage| {
             p.0.iter().map(|(l, t)| RawText { lang: Some(l.clone()), text: t.clone() }).collect()
         };
         let files = |p: &PerLanguage| {
             p.0.iter().map(|(l, s)| RawFile { lang: Some(l.clone()), src: s.clone() }).collect()
         };
+        RawNode {
+            id: n.id.clone(),
+            importance: n.importance.to_string(),
+            view: Some(RawView {
+                eye: fmt3(n.view.eye),
+                target: fmt3(n.view.target),
+                up: fmt3(n.view.up),
+                fov: n.view.fov_y.to_string(),
+            }),
+            titles: texts(&n.title),
+            texts: texts(&n.text),
+            overlays: files(&n.overlay),
+            narrations: files(&n.narration),
+            thumbnail: n.thumbnail.clone().map(|src| RawFile { lang: None, src }),
+            roi: (n.roi_mask.is_some() || n.roi_bbox.is_some()).then(|| RawRoi {
+                mask: n.roi_mask.clone(),
+                min: n.roi_bbox.map(|b| fmt3(b.0)),
+                max: n.roi_bbox.map(|b| fmt3(b.1)),
+            }),
+        }
+    }
+
+    fn raw_edge(&self, e: &Edge) -> RawEdge {
+        RawEdge {
+            from: self.nodes[e.from].id.clone(),
+            to: self.nodes[e.to].id.clone(),
+            weight: e.weight.to_string(),
+        }
+    }
+
+    /// One node or edge as XML, indented for its place under `<infograph>`.
+    fn element_xml<T: Serialize>(root: &str, raw: &T) -> String {
+        let mut out = String::new();
+        let written = quick_xml::se::Serializer::with_root(&mut out, Some(root)).and_then(|mut ser| {
+            ser.indent(' ', 2);
+            raw.serialize(ser)
+        });
+        if let Err(e) = written {
+            // Serialising our own structs cannot fail short of a bug; say so in the output.
+            return format!("<!-- serialisation failed: {e} -->");
+        }
+        out.replace('\n', "\n  ")
+    }
+
+    /// Writes the graph over `original`, the file it was read from, changing only what was
+    /// edited: comments, unknown elements and attributes, and every node or edge the loader
+    /// could not read (dropped with a problem) are kept as they were; a node or edge that is
+    /// unchanged is copied byte for byte; an edited one is written anew (its unknown attributes
+    /// are not kept); a deleted one is removed; new ones are added at the end.
+    pub fn to_xml_over(&self, original: &str) -> Result<String, GraphError> {
+        use quick_xml::events::Event;
+        let (loaded, _) = Self::from_xml(original)?;
+        let xml_err = |e: &dyn std::fmt::Display| GraphError::Xml(e.to_string());
+        let attr = |e: &quick_xml::events::BytesStart<'_>, name: &str| -> Option<String> {
+            e.attributes()
+                .flatten()
+                .find(|a| a.key.as_ref() == name)
+                .and_then(|a| a.normalized_value(quick_xml::XmlVersion::Implicit1_0).ok())
+                .map(|v| v.trim().to_string())
+        };
+        let loaded_edge = |from: &str, to: &str| -> Option<&Edge> {
+            let (f, t) = (loaded.index_of(from)?, loaded.index_of(to)?);
+            loaded.edges.iter().find(|e| e.from == f && e.to == t)
+        };
+        let mut written_nodes = vec![false; self.nodes.len()];
+        let mut written_edges = vec![false; self.edges.len()];
+        let mut claimed_nodes = BTreeSet::new();
+        let mut claimed_edges = BTreeSet::new();
+        let mut out = String::new();
+        let mut reader = quick_xml::Reader::from_str(original);
+        let mut depth = 0usize;
+        let mut item_start = 0usize;
+        // Whitespace before an item, held until we know whether the item is kept.
+        let mut pending_space = String::new();
+        let mut tail_start = None;
+        loop {
+            let before = reader.buffer_position() as usize;
+            let event = reader.read_event().map_err(|e| xml_err(&e))?;
+            let after = reader.buffer_position() as usize;
+            let raw = &original[before..after];
+            match &event {
+                Event::Eof => break,
+                Event::Start(_) | Event::Empty(_) if depth == 0 => {
+                    // Everything up to and including the root's start tag, as it was.
+                    out.push_str(&original[..after]);
+                    if matches!(event, Event::Start(_)) {
+                        depth = 1;
+                    } else {
+                        tail_start = Some(after);
+                        break;
+                    }
+                    continue;
+                }
+                _ if depth == 0 => continue,
+                Event::End(_) if depth == 1 => {
+                    // New nodes and edges go before the root's end tag.
+                    for (n, _) in self.nodes.iter().zip(&written_nodes).filter(|(_, w)| !**w) {
+                        out.push_str("\n  ");
+                        out.push_str(&Self::element_xml("node", &self.raw_node(n)));
+                    }
+                    for (e, _) in self.edges.iter().zip(&written_edges).filter(|(_, w)| !**w) {
+                        out.push_str("\n  ");
+                        out.push_str(&Self::element_xml("edge", &self.raw_edge(e)));
+                    }
+                    out.push_str(&pending_space);
+                    tail_start = Some(before);
+                    break;
+                }
+                Event::Text(t) if depth == 1 && t.trim().is_empty() => {
+                    pending_space.push_str(raw);
+                    continue;
+                }
+                _ => {}
+            }
+            // A child of the root (or part of one): find its whole span.
+            if depth == 1 {
+                item_start = before;
+            }
+            match &event {
+                Event::Start(_) => depth += 1,
+                Event::End(_) => depth -= 1,
+                _ => {}
+            }
+            if depth != 1 {
+                continue;
+            }
+            let item = &original[item_start..after];
+            let start_tag = match &event {
+                Event::Empty(e) => Some(e.clone().into_owned()),
+                Event::End(_) => {
+                    let mut r = quick_xml::Reader::from_str(item);
+                    match r.read_event() {
+                        Ok(Event::Start(e)) => Some(e.into_owned()),
+                        _ => None,
+                    }
+                }
+                _ => None,
+            };
+            let replacement: Option<Option<String>> = match &start_tag {
+                Some(e) if e.name().as_ref() == "node" => attr(e, "id").and_then(|id| {
+                    let old = loaded.index_of(&id).filter(|_| claimed_nodes.insert(id.clone()))?;
+                    Some(self.index_of(&id).map(|i| {
+                        written_nodes[i] = true;
+                        if self.nodes[i] == loaded.nodes[old] {
+                            item.to_string()
+                        } else {
+                            Self::element_xml("node", &self.raw_node(&self.nodes[i]))
+                        }
+                    }))
+                }),
+                Some(e) if e.name().as_ref() == "edge" => match (attr(e, "from"), attr(e, "to")) {
+                    (Some(from), Some(to)) => loaded_edge(&from, &to)
+                        .filter(|_| claimed_edges.insert((from.clone(), to.clone())))
+                        .map(|old| {
+                            let now = self
+                                .edges
+                                .iter()
+                                .position(|x| self.nodes[x.from].id == from && self.nodes[x.to].id == to);
+                            now.map(|i| {
+                                written_edges[i] = true;
+                                if self.edges[i].weight == old.weight {
+                                    item.to_string()
+                                } else {
+                                    Self::element_xml("edge", &self.raw_edge(&self.edges[i]))
+                                }
+                            })
+                        }),
+                    _ => None,
+                },
+                _ => None,
+            };
+            match replacement {
+                // Not something the loader read (a comment, an unknown element, a node or edge
+                // it dropped): kept as it was.
+                None => {
+                    out.push_str(&pending_space);
+                    out.push_str(item);
+                }
+                Some(Some(text)) => {
+                    out.push_str(&pending_space);
+                    out.push_str(&text);
+                }
+                // Deleted by the curator, with the whitespace before it.
+                Some(None) => {}
+            }
+            pending_space.clear();
+        }
+        if let Some(t) = tail_start {
+            out.push_str(&original[t..]);
+        }
+        Ok(out)
+    }
+
+    /// Writes the graph as XML (version 1).
+    pub fn to_xml(&self) -> String {
         let raw = RawGraph {
             version: GRAPH_VERSION,
             default_lang: self.default_lang.clone(),
-            nodes: self
-                .nodes
-                .iter()
-                .map(|n| RawNode {
-                    id: n.id.clone(),
-                    importance: n.importance.to_string(),
-                    view: Some(RawView {
-                        eye: fmt3(n.view.eye),
-                        target: fmt3(n.view.target),
-                        up: fmt3(n.view.up),
-                        fov: n.view.fov_y.to_string(),
-                    }),
-                    titles: texts(&n.title),
-                    texts: texts(&n.text),
-                    overlays: files(&n.overlay),
-                    narrations: files(&n.narration),
-                    thumbnail: n.thumbnail.clone().map(|src| RawFile { lang: None, src }),
-                    roi: (n.roi_mask.is_some() || n.roi_bbox.is_some()).then(|| RawRoi {
-                        mask: n.roi_mask.clone(),
-                        min: n.roi_bbox.map(|b| fmt3(b.0)),
-                        max: n.roi_bbox.map(|b| fmt3(b.1)),
-                    }),
-                })
-                .collect(),
-            edges: self
-                .edges
-                .iter()
-                .map(|e| RawEdge {
-                    from: self.nodes[e.from].id.clone(),
-                    to: self.nodes[e.to].id.clone(),
-                    weight: e.weight.to_string(),
-                })
-                .collect(),
+            nodes: self.nodes.iter().map(|n| self.raw_node(n)).collect(),
+            edges: self.edges.iter().map(|e| self.raw_edge(e)).collect(),
         };
         let mut out = String::from("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
         let mut ser = quick_xml::se::Serializer::new(&mut out);
@@ -690,6 +853,76 @@ mod tests {
         for bad in ["/abs", "a//b", "a/../b", "..", "a\\b", "c:x", "a\nb", "a/"] {
             assert!(check_media_path(bad).is_err(), "{bad:?}");
         }
+    }
+
+    /// A curator's file: comments, an unknown attribute and element, a node and an edge the
+    /// loader cannot read.
+    const CURATED: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<!-- Exhibit of the Louvre bust; ask Anna before changing the intro. -->
+<infograph version="1" default-lang="en" curator="anna">
+  <!-- the first view -->
+  <node id="intro" importance="1" colour="gold">
+    <view eye="0 0 3" target="0 0 0" up="0 1 0" fov="0.8"/>
+    <title lang="en">The bust</title>
+  </node>
+  <node id="wide" importance="0.5">
+    <view eye="0 0 3" target="0 0 0" up="0 1 0" fov="32"/>
+    <title lang="en">Too wide</title>
+    <text lang="en">Written by hand; the fov is in degrees by mistake.</text>
+  </node>
+  <node id="beard">
+    <view eye="1 0 3" target="0 0 0" up="0 1 0" fov="0.6"/>
+    <title lang="en">The beard</title>
+  </node>
+  <draft note="ideas for later"/>
+  <edge from="intro" to="beard" weight="1"/>
+  <edge from="intro" to="wide" weight="0.5"/>
+</infograph>
+"#;
+
+    #[test]
+    fn saving_over_the_original_keeps_what_the_loader_could_not_read() {
+        let (g, problems) = InfoGraph::from_xml(CURATED).expect("readable");
+        assert_eq!(g.nodes.len(), 2, "{problems:?}");
+        assert!(problems.iter().any(|p| p.node.as_deref() == Some("wide") && p.dropped));
+        // No edit: the file is written back byte for byte.
+        assert_eq!(g.to_xml_over(CURATED).expect("save"), CURATED);
+        // One edit: only that node changes; the rest, comments and all, stays.
+        let mut edited = g.clone();
+        edited.nodes[1].title.0.insert("en".into(), "The curly beard".into());
+        let xml = edited.to_xml_over(CURATED).expect("save");
+        assert!(xml.contains("The curly beard"), "{xml}");
+        for kept in [
+            "<!-- Exhibit of the Louvre bust; ask Anna before changing the intro. -->",
+            r#"curator="anna""#,
+            "<!-- the first view -->",
+            r#"<node id="intro" importance="1" colour="gold">"#,
+            r#"fov="32""#,
+            "the fov is in degrees by mistake",
+            r#"<draft note="ideas for later"/>"#,
+            r#"<edge from="intro" to="wide" weight="0.5"/>"#,
+            r#"<edge from="intro" to="beard" weight="1"/>"#,
+        ] {
+            assert!(xml.contains(kept), "lost {kept}:\n{xml}");
+        }
+        let (again, p2) = InfoGraph::from_xml(&xml).expect("own output");
+        assert_eq!(again, edited);
+        assert_eq!(p2, problems, "the same problems, nothing new and nothing lost");
+        // A node deleted and one added, an edge added: the unreadable node stays.
+        let mut edited = g.clone();
+        edited.edges.clear();
+        edited.nodes.remove(1);
+        let mut added = edited.nodes[0].clone();
+        added.id = "hair".into();
+        edited.nodes.push(added);
+        edited.edges.push(Edge { from: 0, to: 1, weight: 0.2 });
+        let xml = edited.to_xml_over(CURATED).expect("save");
+        assert!(!xml.contains("The beard") && !xml.contains(r#"to="beard""#), "{xml}");
+        assert!(
+            xml.contains(r#"fov="32""#) && xml.contains(r#"<edge from="intro" to="wide" weight="0.5"/>"#)
+        );
+        let (again, _) = InfoGraph::from_xml(&xml).expect("own output");
+        assert_eq!(again, edited, "{xml}");
     }
 
     #[test]

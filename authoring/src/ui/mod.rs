@@ -92,6 +92,12 @@ pub fn autosave_path(dir: &Path) -> PathBuf {
     dir.join(".graph.autosave.xml")
 }
 
+/// Where the autosave of a session that ended without saving (a crash) is kept when the tool
+/// opens, so that this session's autosaves never overwrite it before the curator has chosen.
+pub fn recovered_path(dir: &Path) -> PathBuf {
+    dir.join(".graph.recovered.xml")
+}
+
 impl AuthorApp {
     /// Opens a project; `gpu` renders the live view and thumbnails (none: no picture, still editable).
     pub fn new(project: Project, problems: Vec<Problem>, gpu: Option<(Gpu, Renderer)>) -> Self {
@@ -111,9 +117,24 @@ impl AuthorApp {
         );
         let lang = project.graph.default_lang.clone();
         let mut log: Vec<String> = problems.iter().map(|p| format!("on open: {p}")).collect();
-        if autosave_path(project.dir()).exists() {
+        if problems.iter().any(|p| p.dropped) {
             log.push(
-                "an autosave from an unsaved session exists: \"Restore autosave\" brings it back".into(),
+                "some content could not be read (above): it is kept in graph.xml as it is when you save; \
+                 fix it there or remove it"
+                    .into(),
+            );
+        }
+        let (autosave, recovered) = (autosave_path(project.dir()), recovered_path(project.dir()));
+        if autosave.exists() {
+            // Set aside before this session autosaves anything of its own.
+            if let Err(e) = std::fs::rename(&autosave, &recovered) {
+                log.push(format!("cannot set aside the autosave {}: {e}", autosave.display()));
+            }
+        }
+        if recovered.exists() {
+            log.push(
+                "an autosave from a session that ended without saving exists: \"Restore autosave\" brings it back"
+                    .into(),
             );
         }
         Self {
@@ -347,20 +368,22 @@ impl AuthorApp {
         }
         let path = autosave_path(self.project.dir());
         let tmp = path.with_extension("saving");
-        let r = std::fs::write(&tmp, self.project.graph.to_xml()).and_then(|()| std::fs::rename(&tmp, &path));
+        let r = std::fs::write(&tmp, self.project.to_xml()).and_then(|()| std::fs::rename(&tmp, &path));
         if let Err(e) = r {
             self.say(format!("autosave failed: {e}"));
         }
     }
 
-    /// Loads the autosave as an edit (undoable).
+    /// Loads the autosave of the session that ended without saving as an edit (undoable); the
+    /// file is removed once restored (this session's autosaves take over).
     pub fn restore_autosave(&mut self) {
-        let path = autosave_path(self.project.dir());
+        let path = recovered_path(self.project.dir());
         let r = std::fs::read_to_string(&path)
             .map_err(anyhow::Error::from)
             .and_then(|t| Ok(kiosk_core::graph::InfoGraph::from_xml(&t)?.0))
             .and_then(|g| self.project.replace_graph(g));
         if self.report("restore autosave", r).is_some() {
+            let _ = std::fs::remove_file(&path);
             self.say("autosave restored (undo to go back)");
             self.load_texts();
         }
@@ -424,6 +447,12 @@ impl AuthorApp {
         if now - self.last_autosave >= AUTOSAVE_SECS {
             self.last_autosave = now;
             self.autosave();
+        }
+        if self.project.dirty() {
+            // egui draws only on input: wake up for the next autosave even if nobody touches
+            // anything after an edit.
+            let left = (self.last_autosave + AUTOSAVE_SECS - now).max(0.05);
+            ctx.request_repaint_after(std::time::Duration::from_secs_f64(left));
         }
         let (undo, redo, save) = ctx.input_mut(|i| {
             (
@@ -494,7 +523,7 @@ impl AuthorApp {
             if ui.button("Redo").clicked() {
                 self.redo();
             }
-            if autosave_path(self.project.dir()).exists() && ui.button("Restore autosave").clicked() {
+            if recovered_path(self.project.dir()).exists() && ui.button("Restore autosave").clicked() {
                 self.restore_autosave();
             }
             ui.separator();
