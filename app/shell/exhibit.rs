@@ -36,7 +36,8 @@ pub fn open_model(dir: &Path) -> anyhow::Result<MappedStore> {
     let options = ImportOptions::default();
     let name = cache_name(&file, &options, kiosk_import::BUILDER_REVISION)?;
     let cache = cache_dir();
-    std::fs::create_dir_all(&cache).with_context(|| format!("cannot create the cache {}", cache.display()))?;
+    std::fs::create_dir_all(&cache)
+        .with_context(|| format!("cannot create the cache {}", cache.display()))?;
     let store = cache.join(name);
     if let Ok(s) = crate::open_store(&store) {
         return Ok(s);

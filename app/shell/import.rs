@@ -83,7 +83,12 @@ pub fn import_locked(scan: &Path, lock: &OutputLock, opts: &ImportOptions) -> an
     let pb = bar(opts.progress);
     pb.set_message("reading");
     let report = source::read_file(scan, &opts.read, &mut Feed { builder: &mut builder, pb: &pb, read: 0 })
-        .with_context(|| format!("{}", scan.display()))?;
+        .map_err(|e| {
+        // The readers name no command-line flag; the command adds what the user can do.
+        let skippable = e.to_string().contains("non-finite coordinate");
+        let hint = if skippable { " (--drop-invalid skips samples with non-finite coordinates)" } else { "" };
+        anyhow::Error::new(e).context(format!("{}{hint}", scan.display()))
+    })?;
     let staged = work.path.join("store.kstore");
     let summary = build(builder, &staged, &pb).with_context(|| format!("building {}", lock.out.display()))?;
     std::fs::rename(&staged, &lock.out).with_context(|| format!("cannot write {}", lock.out.display()))?;

@@ -4,9 +4,7 @@
 pub mod exhibit;
 pub mod import;
 pub mod media;
-pub mod metrics;
 pub mod snapshot;
-pub mod synthetic;
 pub mod windows;
 
 use anyhow::Context;

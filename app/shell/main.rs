@@ -200,11 +200,6 @@ enum Command {
     },
 }
 
-/// The system allocator, with huge pages behind large blocks: an import fills hundreds of
-/// megabytes of fresh memory, and fresh 4 KiB pages are costly (see `kiosk_import::alloc`).
-#[global_allocator]
-static ALLOC: kiosk_import::alloc::HugePages = kiosk_import::alloc::HugePages;
-
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     tracing_subscriber::fmt()

@@ -23,7 +23,7 @@ fn main() -> anyhow::Result<()> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let out_dir = root.join("target/bench");
     std::fs::create_dir_all(&out_dir)?;
-    let scan = kiosk::synthetic::dragon_scan();
+    let scan = kiosk_testkit::synthetic::dragon_scan();
     let dir = tempfile::tempdir()?;
     let scan_store = dir.path().join("dragon.kstore");
     kiosk::import::import(&scan, &scan_store, &Default::default())?;

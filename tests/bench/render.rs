@@ -45,7 +45,7 @@ fn main() -> anyhow::Result<()> {
     let (gpu, mut renderer) = kiosk::snapshot::offscreen()?;
     println!("adapter: {} ({:?}, {:?})", gpu.adapter.name, gpu.adapter.backend, gpu.adapter.device_type);
     let dir = tempfile::tempdir()?;
-    let scan = kiosk::synthetic::dragon_scan();
+    let scan = kiosk_testkit::synthetic::dragon_scan();
     let scan_store = dir.path().join("dragon.kstore");
     kiosk::import::import(&scan, &scan_store, &Default::default())?;
     let tradeoff_only = std::env::args().any(|a| a == "--tradeoff-only");
@@ -141,8 +141,8 @@ fn main() -> anyhow::Result<()> {
             last = Some(r);
         }
         let (img, st) = last.expect("frames");
-        let p = kiosk::metrics::psnr(&img, &reference);
-        let s = kiosk::metrics::ssim(&img, &reference);
+        let p = kiosk_testkit::metrics::psnr(&img, &reference);
+        let s = kiosk_testkit::metrics::ssim(&img, &reference);
         let ms = median(t);
         println!("| {tol} | {} | {} | {ms:.1} | {p:.2} | {s:.4} |", st.nodes, st.splats);
         series.push((tol, ms, p, s));

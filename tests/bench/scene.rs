@@ -28,10 +28,6 @@ use std::time::Instant;
 
 type Rng64 = rand_pcg::Pcg64;
 
-/// Builds here take the allocator the `kiosk` binary takes.
-#[global_allocator]
-static ALLOC: kiosk_import::alloc::HugePages = kiosk_import::alloc::HugePages;
-
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if let Some(i) = args.iter().position(|a| a == "--child-build") {
@@ -172,7 +168,7 @@ fn inflate_ms(scan: &Path) -> anyhow::Result<f64> {
 }
 
 fn real_scan() -> PathBuf {
-    kiosk::synthetic::dragon_scan()
+    kiosk_testkit::synthetic::dragon_scan()
 }
 
 /// Builds of the real scan in a run, back to back and then each after a pause: each row is

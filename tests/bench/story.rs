@@ -52,7 +52,7 @@ fn main() -> anyhow::Result<()> {
     println!("|---|---|---|---|---|");
     let s64 = samples(64, &mut rng);
     for n in [109usize, 10_000] {
-        let g = kiosk::synthetic::paper_graph(&store, n, 7);
+        let g = kiosk_testkit::synthetic::paper_graph(&store, n, 7);
         let rec = Recommender::new(&g, RecSettings::default(), 0.0);
         let ctx = ViewContext { camera: cam, aspect: 16.0 / 9.0, samples: &s64, diagonal, moving: false };
         let mut t = Vec::new();
@@ -65,7 +65,7 @@ fn main() -> anyhow::Result<()> {
         let max = t.iter().copied().fold(0.0, f64::max);
         println!("| paper-shaped | {n} | {} | {:.1} | {max:.1} |", g.edges.len(), median(t));
     }
-    let g = kiosk::synthetic::paper_graph(&store, 1000, 8);
+    let g = kiosk_testkit::synthetic::paper_graph(&store, 1000, 8);
     let index = ViewIndex::new(&g);
     let mut t = Vec::new();
     let mut counts = Vec::new();
@@ -94,7 +94,7 @@ fn main() -> anyhow::Result<()> {
     );
 
     // Speed against accuracy: S samples vs a large reference.
-    let g = kiosk::synthetic::paper_graph(&store, 109, 9);
+    let g = kiosk_testkit::synthetic::paper_graph(&store, 109, 9);
     let rec = Recommender::new(&g, RecSettings::default(), 0.0);
     let views: Vec<kiosk_core::camera::Camera> = (0..20)
         .map(|k| {

@@ -7,7 +7,7 @@ use glam::DVec3;
 use kiosk::MappedStore;
 use kiosk_core::camera::Camera;
 use kiosk_render::{Gpu, RenderSettings, Renderer, SplatMode};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::{Mutex, OnceLock};
 
 /// The perceptual tolerance of golden images: mean SSIM over 8×8 windows of the luminance.
@@ -70,14 +70,14 @@ fn render(
     img
 }
 
-use kiosk::metrics::ssim;
+use kiosk_testkit::metrics::ssim;
 
 fn golden_dir() -> PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden")
 }
 
 /// Compares with `tests/golden/NAME.png`; on a difference writes `NAME.actual.png` and
-/// `NAME.diff.png` beside it and fails. `ISOKIOSK_BLESS=1` writes the golden instead.
+/// `NAME.diff.png` into the build directory (`target/tmp/golden/`) and fails. `ISOKIOSK_BLESS=1` writes the golden instead.
 fn assert_golden(name: &str, img: &image::RgbaImage) {
     let dir = golden_dir();
     let golden = dir.join(format!("{name}.png"));
@@ -85,7 +85,10 @@ fn assert_golden(name: &str, img: &image::RgbaImage) {
         img.save(&golden).expect("write golden");
         return;
     }
-    let actual = dir.join(format!("{name}.actual.png"));
+    // Candidates and differences go to the build directory: tests never write into the sources.
+    let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("golden");
+    std::fs::create_dir_all(&out).expect("golden output directory");
+    let actual = out.join(format!("{name}.actual.png"));
     let Ok(reference) = image::open(&golden).map(|i| i.to_rgba8()) else {
         img.save(&actual).expect("write actual");
         panic!(
@@ -106,10 +109,13 @@ fn assert_golden(name: &str, img: &image::RgbaImage) {
             let d = (0..3).map(|c| (i16::from(a[c]) - i16::from(b[c])).unsigned_abs()).max().unwrap_or(0);
             image::Rgba([(d * 4).min(255) as u8, 0, 0, 255])
         });
-        diff.save(dir.join(format!("{name}.diff.png"))).expect("write diff");
+        let diff_path = out.join(format!("{name}.diff.png"));
+        diff.save(&diff_path).expect("write diff");
         panic!(
-            "{name}: SSIM {s:.4} < {MIN_SSIM} against {} (see {name}.actual.png and {name}.diff.png)",
-            golden.display()
+            "{name}: SSIM {s:.4} < {MIN_SSIM} against {} (see {} and {})",
+            golden.display(),
+            actual.display(),
+            diff_path.display()
         );
     }
 }

@@ -5,10 +5,10 @@ mod sessions;
 mod visit;
 
 use kiosk::MappedStore;
-pub use kiosk::synthetic::node;
 use kiosk_core::graph::InfoGraph;
+pub use kiosk_testkit::synthetic::node;
 
 /// The paper's graph: 109 nodes, 132 edges.
 pub fn paper_graph(store: &MappedStore, seed: u64) -> InfoGraph {
-    kiosk::synthetic::paper_graph(store, 109, seed)
+    kiosk_testkit::synthetic::paper_graph(store, 109, seed)
 }

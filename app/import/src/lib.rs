@@ -2,7 +2,6 @@
 //! builder of the multiresolution point hierarchy. This is the file-heavy edge of the system;
 //! the store it writes is read by the pure core.
 
-pub mod alloc;
 pub mod build;
 pub mod direct;
 pub mod estimate;

@@ -66,7 +66,7 @@ pub enum ReadError {
     #[error("{0}")]
     Unusable(String),
     /// A sample has a non-finite coordinate.
-    #[error("{element} row {row}{}: non-finite coordinate ({x}, {y}, {z}); use --drop-invalid to skip such samples", .line.map(|l| format!(" (line {l})")).unwrap_or_default())]
+    #[error("{element} row {row}{}: non-finite coordinate ({x}, {y}, {z})", .line.map(|l| format!(" (line {l})")).unwrap_or_default())]
     NonFinite {
         /// Element ("vertex" or "v" for OBJ).
         element: String,
@@ -670,9 +670,7 @@ impl ply::Convert for PlyRows {
                     element: "vertex".into(),
                     row: ri + 1,
                     line: None,
-                    msg: format!(
-                        "non-finite coordinate ({x}, {y}, {z}); use --drop-invalid to skip such samples"
-                    ),
+                    msg: format!("non-finite coordinate ({x}, {y}, {z})"),
                 });
             }
             let normal = self

@@ -40,7 +40,7 @@ const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 pub enum RenderError {
     /// No GPU adapter (install lavapipe: `mesa-vulkan-drivers libvulkan1`).
     #[error(
-        "no GPU adapter found ({0}); on a machine without GPU install lavapipe (mesa-vulkan-drivers, libvulkan1)"
+        "no GPU adapter found ({0}); on a machine without GPU install lavapipe (mesa-vulkan-drivers, libvulkan1; in a checkout, .ci/setup installs them)"
     )]
     NoAdapter(String),
     /// The device could not be created.

@@ -2,8 +2,8 @@
 //! model (thesis 11.6: 109 nodes, 132 edges — 12 mandatory, 36 at 0.8, the rest at 0.2 — in a
 //! 5-level DAG), scaled to any size.
 
-use crate::MappedStore;
 use glam::DVec3;
+use kiosk::MappedStore;
 use kiosk_core::camera::{Camera, orthonormal_up};
 use kiosk_core::graph::{Edge, InfoGraph, Node, PerLanguage};
 use rand::{Rng, SeedableRng};
@@ -96,10 +96,7 @@ pub fn paper_graph(store: &MappedStore, n: usize, seed: u64) -> InfoGraph {
     InfoGraph { default_lang: "en".into(), nodes, edges }
 }
 
-/// The full-resolution Stanford dragon for benchmarks: from `../shared/data` when present, else
-/// the copy in `tests/data`.
+/// The full-resolution Stanford dragon for benchmarks (`tests/data`).
 pub fn dragon_scan() -> std::path::PathBuf {
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-    let shared = root.join("../shared/data/scans/stanford-dragon/dragon_vrip.ply.gz");
-    if shared.exists() { shared } else { root.join("tests/data/scans/stanford-dragon/dragon_vrip.ply.gz") }
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/scans/stanford-dragon/dragon_vrip.ply.gz")
 }
