@@ -34,7 +34,7 @@ fn a_broken_narration_is_an_error_naming_the_file() {
     let dir = tempfile::tempdir().expect("temp dir");
     let bad = dir.path().join("broken.wav");
     std::fs::write(&bad, b"RIFF\x24\0\0\0WAVEfmt garbage").expect("write");
-    let e = decode(&bad).err().expect("a broken WAV must not decode");
+    let Err(e) = decode(&bad) else { panic!("a broken WAV must not decode") };
     assert!(e.contains("broken.wav"), "{e}");
     let mut narrator = Narrator::new(1.0, true);
     let e = narrator.play(&bad).expect_err("play reports the broken file");
