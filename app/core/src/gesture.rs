@@ -249,7 +249,7 @@ impl Gestures {
     }
 
     /// Chooses the mode after fingers were added or removed.
-    fn regroup(&mut self, _t: f64) {
+    fn regroup(&mut self, t: f64) {
         self.mode = match self.fingers.len() {
             0 => Mode::Idle,
             1 => {
@@ -270,9 +270,15 @@ impl Gestures {
                         Mode::ZoomBar { last_y: f.pos.y }
                     } else {
                         // A finger left behind after a two-finger gesture restarts the joystick
-                        // from where it is, so the camera does not jump.
+                        // from where it is, so the camera does not jump, and starts a fresh long
+                        // press: its stillness during the pinch does not count toward one. A
+                        // finger spent by a closed menu stays spent.
                         if let Some(f) = self.fingers.values_mut().next() {
                             f.start = f.pos;
+                            f.down_t = t;
+                            if f.drift.is_finite() {
+                                f.drift = 0.0;
+                            }
                         }
                         Mode::Joystick
                     }
@@ -458,6 +464,38 @@ mod tests {
         g.menu_cancel();
         assert!(!g.menu_open());
         assert!(matches!(g.take_menu_events()[..], [MenuEvent::Open { .. }, MenuEvent::Cancel]));
+    }
+
+    #[test]
+    fn the_finger_left_after_a_pinch_starts_a_fresh_long_press() {
+        let mut g = Gestures::new(GestureSettings::default());
+        let dt = 1.0 / 60.0;
+        // The thumb stays still at (0.4, 0.5) while the other finger pinches out for a second.
+        g.event(&ev(0.0, TouchKind::Down, 1, 0.4, 0.5));
+        g.event(&ev(0.0, TouchKind::Down, 2, 0.6, 0.5));
+        let mut t = 0.0;
+        while t < 1.0 {
+            t += dt;
+            g.event(&ev(t, TouchKind::Move, 2, 0.6 + 0.2 * t, 0.5));
+            g.frame(t, dt);
+        }
+        g.event(&ev(t, TouchKind::Up, 2, 0.8, 0.5));
+        // Right after the pinch the thumb is a joystick at rest, not a long press.
+        g.frame(t + dt, dt);
+        assert!(!g.menu_open(), "the menu opened as the pinch ended");
+        assert!(g.take_menu_events().is_empty());
+        // Held still for the long-press time from the end of the pinch, it asks for the menu.
+        let end = t;
+        while t < end + 0.6 {
+            t += dt;
+            g.frame(t, dt);
+        }
+        assert!(!g.menu_open(), "opened before the long-press time counted from the pinch's end");
+        while t < end + 0.8 {
+            t += dt;
+            g.frame(t, dt);
+        }
+        assert!(g.menu_open());
     }
 
     #[test]
