@@ -93,3 +93,40 @@ fn hundred_thousand_hover_steps_keep_the_isolevel() {
     assert!(worst <= settings.reproject_tolerance);
     assert_eq!(iso.isolevel(), level);
 }
+
+/// IsoCam on the bunny's leaves, from the initial framing view.
+fn isocam_on_bunny(
+    cut: &kiosk_core::Cut,
+    edit: impl FnOnce(&mut IsoCamSettings),
+) -> (IsoCam, SceneRef<'_, memmap2::Mmap>) {
+    let b = bunny();
+    let scene = SceneRef { store: &b.store, cut };
+    let cam = kiosk_core::replay::initial_camera(&b.store, 0.8, glam::DVec3::Y);
+    let mut settings = IsoCamSettings::for_model(scene.diagonal());
+    edit(&mut settings);
+    (IsoCam::new(scene, cam, settings), scene)
+}
+
+#[test]
+fn zoom_moves_along_the_view_direction_after_a_hover() {
+    let cut = kiosk_core::Cut::leaves(&bunny().store);
+    let (mut iso, scene) = isocam_on_bunny(&cut, |_| {});
+    // One large hover: the smoothed view lags behind the new coarse target.
+    iso.hover(scene, (0.4, 0.15));
+    let before = iso.camera();
+    let to_coarse = (iso.coarse_target() - before.eye).normalize();
+    let lag = before.forward().dot(to_coarse).clamp(-1.0, 1.0).acos();
+    assert!(
+        lag > 1f64.to_radians(),
+        "view and coarse target agree ({:.3}°): nothing to test",
+        lag.to_degrees()
+    );
+    iso.zoom(scene, 0.3);
+    let after = iso.camera();
+    let moved = after.eye - before.eye;
+    assert!(moved.length() > 1e-3 * scene.diagonal(), "the zoom did not move");
+    let off_axis = moved.normalize().cross(before.forward()).length();
+    assert!(off_axis < 1e-9, "the eye left the line of sight (sin {off_axis:e})");
+    assert!(moved.dot(before.forward()) > 0.0, "zoom in went backward");
+    assert!((after.forward() - before.forward()).length() < 1e-12, "the view turned");
+}

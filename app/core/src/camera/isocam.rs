@@ -6,10 +6,11 @@
 //!   the eye onto the isolevel by moving toward the fine target and recomputing it, until
 //!   |d − iso| ≤ `reproject_tolerance` × iso or `reproject_max_iterations`. Then the coarse target
 //!   gives the view direction, under a global up vector with a tilt limit.
-//! - Zoom: the distance to the coarse target changes along the line eye → coarse target (which is
-//!   not recomputed); the move is accepted only if the new distances to both the fine and the
-//!   coarse targets are ≥ `min_distance` (forward and backward collisions alike). A refused move
-//!   is shortened by bisection to the largest safe fraction.
+//! - Zoom: the eye moves along the view direction (what the visitor sees stays centred), the
+//!   distance to the point looked at (at the coarse target's distance along the view) scaled
+//!   by the zoom; the move is accepted only if the new distances to the fine target, to the
+//!   coarse target and to the point looked at are all ≥ `min_distance` (forward and backward
+//!   collisions alike). A refused move is shortened by bisection to the largest safe fraction.
 //! - Twist: rotates the up vector about the view direction.
 //! - Temporal smoothing (9.3.3): the screen motion of the coarse target is limited to the user's
 //!   input motion by interpolating the orientation (recursively, `smoothing_rounds`), then the
@@ -294,18 +295,26 @@ impl IsoCam {
         slerp_dir(prev_dir, dir, s.smoothing_blend.clamp(0.0, 1.0))
     }
 
-    /// Zoom: positive `amount` brings the eye closer (log of the distance ratio).
+    /// Zoom: positive `amount` brings the eye closer (log of the distance ratio), along the view
+    /// direction: the point looked at stays at the centre of the screen.
     pub fn zoom<B: AsRef<[u8]>>(&mut self, scene: SceneRef<'_, B>, amount: f64) {
         let s = self.settings;
-        let to_coarse = self.coarse - self.eye;
-        let dc = to_coarse.length();
-        let Some(u) = to_coarse.try_normalize() else { return };
+        let u = self.dir;
+        let dc = (self.coarse - self.eye).length();
+        if !(dc > 0.0 && dc.is_finite() && u.is_finite()) {
+            return;
+        }
+        // The point looked at: on the view ray, at the coarse target's distance.
+        let pivot = self.eye + u * dc;
         let candidate = |frac: f64| -> Option<(DVec3, f64)> {
             let d = dc * (-amount * frac).exp();
             if d.is_nan() || d < s.min_distance || !d.is_finite() {
                 return None;
             }
-            let eye = self.coarse - u * d;
+            let eye = pivot - u * d;
+            if (eye - self.coarse).length() < s.min_distance {
+                return None;
+            }
             let f = scene.store.fine_target(scene.cut, eye, &s.query)?;
             let df = (eye - f.point).length().min(f.nearest_distance);
             (df >= s.min_distance).then_some((eye, (eye - f.point).length()))
