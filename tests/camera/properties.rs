@@ -130,3 +130,41 @@ fn zoom_moves_along_the_view_direction_after_a_hover() {
     assert!(moved.dot(before.forward()) > 0.0, "zoom in went backward");
     assert!((after.forward() - before.forward()).length() < 1e-12, "the view turned");
 }
+
+#[test]
+fn a_view_steeper_than_the_tilt_limit_is_kept_and_relaxes_without_a_snap() {
+    let b = bunny();
+    let cut = kiosk_core::Cut::leaves(&b.store);
+    let scene = SceneRef { store: &b.store, cut: &cut };
+    let settings = IsoCamSettings::for_model(scene.diagonal());
+    let center = b.store.to_model(b.store.bbox().center());
+    // Looking down, 4° from vertical (the limit is 10°).
+    let tilt = 4f64.to_radians();
+    let from = glam::DVec3::new(tilt.sin(), tilt.cos(), 0.0);
+    let eye = center + from * scene.diagonal();
+    let steep = kiosk_core::camera::Camera {
+        eye,
+        target: center,
+        up: kiosk_core::camera::orthonormal_up(-from, glam::DVec3::NEG_X, glam::DVec3::Z),
+        fov_y: 0.8,
+    };
+    assert!(settings.exceeds_tilt_limit(&steep));
+    assert!(!settings.exceeds_tilt_limit(&kiosk_core::replay::initial_camera(&b.store, 0.8, glam::DVec3::Y)));
+    // Reset (the end of a go-to) keeps the view exactly.
+    let mut iso = IsoCam::new(scene, steep, settings);
+    let c = iso.camera();
+    assert!((c.forward() - steep.forward()).length() < 1e-12, "{:?} vs {:?}", c.forward(), steep.forward());
+    assert!((c.up - steep.up).length() < 1e-9, "{:?} vs {:?}", c.up, steep.up);
+    assert_eq!(c.eye, steep.eye);
+    // Hovering relaxes it toward the limit a little at a time.
+    let mut prev = c.forward();
+    for _ in 0..300 {
+        iso.hover(scene, (0.02, 0.0));
+        let d = iso.camera().forward();
+        let turn = prev.dot(d).clamp(-1.0, 1.0).acos();
+        assert!(turn < 5f64.to_radians(), "the view snapped by {:.2}°", turn.to_degrees());
+        prev = d;
+    }
+    let tilt = iso.camera().forward().dot(glam::DVec3::Y).abs().acos().to_degrees();
+    assert!(!settings.exceeds_tilt_limit(&iso.camera()), "never relaxed to the limit (tilt {tilt:.2}°)");
+}

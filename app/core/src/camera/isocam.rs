@@ -6,6 +6,11 @@
 //!   the eye onto the isolevel by moving toward the fine target and recomputing it, until
 //!   |d − iso| ≤ `reproject_tolerance` × iso or `reproject_max_iterations`. Then the coarse target
 //!   gives the view direction, under a global up vector with a tilt limit.
+//! - The tilt limit bounds what the visitor's input does, never a view set from outside: a
+//!   go-to ends exactly at its node's view even when that view is steeper than the limit
+//!   ([`IsoCam::reset`] keeps it). The next hovers then relax the view toward the limit at the
+//!   pace of the smoothing (the limit in force is never stricter than the previous view), so
+//!   nothing snaps. [`exceeds_tilt_limit`] tells an author which views are steeper.
 //! - Zoom: the eye moves along the view direction (what the visitor sees stays centred), the
 //!   distance to the point looked at (at the coarse target's distance along the view) scaled
 //!   by the zoom; the move is accepted only if the new distances to the fine target, to the
@@ -125,7 +130,9 @@ impl IsoCam {
         // The point looked at, not yet the coarse target: the first hover then turns toward the
         // coarse target at the pace the smoothing allows instead of snapping to it.
         self.coarse = cam.target;
-        self.dir = self.tilt_limited(cam.forward(), cam.forward());
+        // Exactly the view given (a node's view is reached exactly), even beyond the tilt limit:
+        // the limit bounds the visitor's input, and relaxes from here as the visitor hovers.
+        self.dir = cam.forward();
         // Keep the camera's roll relative to the global up as the twist.
         let base = orthonormal_up(self.dir, self.settings.up, cam.up);
         let up = orthonormal_up(self.dir, cam.up, base);
@@ -217,8 +224,11 @@ impl IsoCam {
         let wanted = (coarse - self.eye).try_normalize().unwrap_or(self.dir);
         let wanted = self.tilt_limited(wanted, self.dir);
         let smoothed = self.smoothed(&prev, old_coarse, wanted, delta.0.hypot(delta.1));
-        // Interpolating between two directions can pass nearer the pole than either.
-        self.dir = self.tilt_limited(smoothed, wanted);
+        // Interpolating between two directions can pass nearer the pole than either. The limit
+        // in force is never stricter than the previous view (a node's view steeper than the
+        // limit relaxes toward it at the smoothing's pace instead of snapping).
+        let limit = self.settings.tilt_limit.min(tilt_from_up(prev.forward(), self.settings.up));
+        self.dir = tilt_limited_to(smoothed, wanted, self.settings.up, limit);
     }
 
     /// Pushes `eye` out to `min_distance` from the nearest sample of the cut, if closer.
@@ -245,17 +255,7 @@ impl IsoCam {
     /// Applies the tilt limit to a view direction (`fallback` gives the heading when looking
     /// straight along ±up).
     fn tilt_limited(&self, dir: DVec3, fallback: DVec3) -> DVec3 {
-        let up = self.settings.up.try_normalize().unwrap_or(DVec3::Y);
-        let c = dir.dot(up);
-        let limit = self.settings.tilt_limit.clamp(0.0, std::f64::consts::FRAC_PI_2);
-        if c.abs() <= limit.cos() {
-            return dir;
-        }
-        let horizontal = (dir - up * c)
-            .try_normalize()
-            .or_else(|| (fallback - up * fallback.dot(up)).try_normalize())
-            .unwrap_or_else(|| super::any_perpendicular(up));
-        (horizontal * limit.sin() + up * c.signum() * limit.cos()).try_normalize().unwrap_or(horizontal)
+        tilt_limited_to(dir, fallback, self.settings.up, self.settings.tilt_limit)
     }
 
     /// Temporal smoothing of the orientation (9.3.3). The screen motion of the previous coarse
@@ -338,5 +338,45 @@ impl IsoCam {
             self.eye = eye;
             self.iso = iso.max(s.min_distance);
         }
+    }
+}
+
+/// Angle between a view direction and the nearer of ±`up` (π/2 looking level).
+fn tilt_from_up(dir: DVec3, up: DVec3) -> f64 {
+    let up = up.try_normalize().unwrap_or(DVec3::Y);
+    match dir.try_normalize() {
+        Some(d) => d.dot(up).abs().clamp(0.0, 1.0).acos(),
+        None => std::f64::consts::FRAC_PI_2,
+    }
+}
+
+/// `dir` brought to at least `limit` from ±`up` (`fallback` gives the heading when looking
+/// straight along ±up).
+fn tilt_limited_to(dir: DVec3, fallback: DVec3, up: DVec3, limit: f64) -> DVec3 {
+    let up = up.try_normalize().unwrap_or(DVec3::Y);
+    let c = dir.dot(up);
+    let limit = limit.clamp(0.0, std::f64::consts::FRAC_PI_2);
+    if c.abs() <= limit.cos() {
+        return dir;
+    }
+    let horizontal = (dir - up * c)
+        .try_normalize()
+        .or_else(|| (fallback - up * fallback.dot(up)).try_normalize())
+        .unwrap_or_else(|| super::any_perpendicular(up));
+    (horizontal * limit.sin() + up * c.signum() * limit.cos()).try_normalize().unwrap_or(horizontal)
+}
+
+/// Whether a view looks nearer to ±`up` than `tilt_limit` (radians), i.e. steeper than the
+/// visitor's input can reach under IsoCam (see [`IsoCamSettings::tilt_limit`]). Authoring uses
+/// it to flag such views; the kiosk still reaches them exactly.
+pub fn exceeds_tilt_limit(view: &Camera, up: DVec3, tilt_limit: f64) -> bool {
+    let limit = tilt_limit.clamp(0.0, std::f64::consts::FRAC_PI_2);
+    tilt_from_up(view.forward(), up) < limit - 1e-12
+}
+
+impl IsoCamSettings {
+    /// Whether a view is steeper than these settings' tilt limit ([`exceeds_tilt_limit`]).
+    pub fn exceeds_tilt_limit(&self, view: &Camera) -> bool {
+        exceeds_tilt_limit(view, self.up, self.tilt_limit)
     }
 }

@@ -12,7 +12,7 @@ mod isocam;
 mod trackball;
 
 pub use acevit::{Acevit, AcevitSettings};
-pub use isocam::{IsoCam, IsoCamSettings, StepStats};
+pub use isocam::{IsoCam, IsoCamSettings, StepStats, exceeds_tilt_limit};
 pub use trackball::Trackball;
 
 use crate::scene::{Cut, Store, ViewParams};
