@@ -168,3 +168,18 @@ fn a_view_steeper_than_the_tilt_limit_is_kept_and_relaxes_without_a_snap() {
     let tilt = iso.camera().forward().dot(glam::DVec3::Y).abs().acos().to_degrees();
     assert!(!settings.exceeds_tilt_limit(&iso.camera()), "never relaxed to the limit (tilt {tilt:.2}°)");
 }
+
+#[test]
+fn a_hover_longer_than_the_step_cap_is_clamped_not_stretched() {
+    let cut = kiosk_core::Cut::leaves(&bunny().store);
+    let (mut iso, scene) = isocam_on_bunny(&cut, |s| s.max_steps_per_frame = 4);
+    let level = iso.isolevel();
+    let eye0 = iso.camera().eye;
+    // One viewport height: about 0.84 isolevels of travel, 17 steps of 5 %.
+    iso.hover(scene, (1.0, 0.0));
+    assert_eq!(iso.last.steps, 4);
+    let moved = (iso.camera().eye - eye0).length();
+    // At most 4 steps of 5 % of the isolevel (re-projection moves the eye a little more).
+    assert!(moved <= 4.0 * 0.05 * level * 1.1, "moved {:.3} isolevels", moved / level);
+    assert!(moved >= 4.0 * 0.05 * level * 0.5, "moved only {:.3} isolevels", moved / level);
+}

@@ -185,8 +185,16 @@ impl IsoCam {
         let world_per_height = 2.0 * (self.fov_y * 0.5).tan() * self.iso;
         let total = (delta.0.hypot(delta.1) * world_per_height).min(1e300);
         let step_len = (s.max_step * self.iso).max(f64::MIN_POSITIVE);
-        let steps = ((total / step_len).ceil() as u32).clamp(1, s.max_steps_per_frame);
-        let (sx, sy) = (delta.0 / f64::from(steps), delta.1 / f64::from(steps));
+        let max_steps = s.max_steps_per_frame.max(1);
+        let wanted_steps = (total / step_len).ceil();
+        // An input longer than `max_steps_per_frame` steps is clamped to that many steps of the
+        // largest size (the steps never grow beyond `max_step`).
+        let (steps, scale) = if wanted_steps > f64::from(max_steps) {
+            (max_steps, f64::from(max_steps) * step_len / total)
+        } else {
+            ((wanted_steps as u32).max(1), 1.0)
+        };
+        let (sx, sy) = (delta.0 * scale / f64::from(steps), delta.1 * scale / f64::from(steps));
         let prev = self.camera();
         let mut stats = StepStats { steps, ..StepStats::default() };
         for _ in 0..steps {
