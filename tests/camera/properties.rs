@@ -183,3 +183,25 @@ fn a_hover_longer_than_the_step_cap_is_clamped_not_stretched() {
     assert!(moved <= 4.0 * 0.05 * level * 1.1, "moved {:.3} isolevels", moved / level);
     assert!(moved >= 4.0 * 0.05 * level * 0.5, "moved only {:.3} isolevels", moved / level);
 }
+
+#[test]
+fn iso_error_is_the_error_where_the_eye_ended() {
+    let cut = kiosk_core::Cut::leaves(&bunny().store);
+    // One re-projection per step and a single large step: re-projection stops after one move.
+    let (mut iso, scene) = isocam_on_bunny(&cut, |s| {
+        s.reproject_max_iterations = 1;
+        s.max_step = 1.0;
+    });
+    let level = iso.isolevel();
+    iso.hover(scene, (0.3, 0.2));
+    assert_eq!(iso.last.steps, 1);
+    let eye = iso.camera().eye;
+    let f = scene.store.fine_target(scene.cut, eye, &iso.settings.query).expect("target");
+    let actual = ((eye - f.point).length() - level).abs() / level;
+    assert!(
+        (iso.last.iso_error - actual).abs() <= 1e-12,
+        "reported {:e}, actual {:e}",
+        iso.last.iso_error,
+        actual
+    );
+}

@@ -206,13 +206,15 @@ impl IsoCam {
             let right = toward.cross(cam_up).try_normalize().unwrap_or(prev.right());
             let w = 2.0 * (self.fov_y * 0.5).tan() * self.iso;
             let mut eye = self.eye + right * (sx * w) + cam_up * (sy * w);
-            // Re-project onto the isolevel.
-            let mut err = f64::INFINITY;
+            // Re-project onto the isolevel. `settled`: the error at `eye` when the loop stopped
+            // there (no move after it).
+            let mut settled = None;
             for _ in 0..s.reproject_max_iterations {
                 let Some(f) = self.fine(scene, eye) else { break };
                 let d = (eye - f).length();
-                err = (d - self.iso).abs() / self.iso;
+                let err = (d - self.iso).abs() / self.iso;
                 if err <= s.reproject_tolerance {
+                    settled = Some(err);
                     break;
                 }
                 stats.iterations += 1;
@@ -223,6 +225,14 @@ impl IsoCam {
                 return;
             }
             self.eye = self.keep_out(scene, eye);
+            // The error where the eye ended, after the last move (measured again only when the
+            // re-projection ran out of iterations or the eye was pushed out).
+            let err = match settled {
+                Some(err) if self.eye == eye => err,
+                _ => self
+                    .fine(scene, self.eye)
+                    .map_or(0.0, |f| ((self.eye - f).length() - self.iso).abs() / self.iso),
+            };
             stats.iso_error = stats.iso_error.max(if err.is_finite() { err } else { 0.0 });
         }
         self.last = stats;
