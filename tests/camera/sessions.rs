@@ -367,3 +367,28 @@ fn goto_eases_in_and_out_and_never_passes_through_the_model() {
     let speed = |k: usize| (eyes[k + 1] - eyes[k]).length();
     assert!(speed(0) < 0.2 * speed(60) && speed(118) < 0.2 * speed(60));
 }
+
+#[test]
+fn acevit_recentres_on_what_a_portrait_screen_shows() {
+    use kiosk_core::camera::{Acevit, AcevitSettings, Camera, SceneRef};
+    use rand::SeedableRng;
+    let b = scan("scans/stanford-bunny/bun_zipper_res2.ply");
+    let cut = kiosk_core::Cut::leaves(&b.store);
+    let scene = SceneRef { store: &b.store, cut: &cut };
+    let center = scene.center();
+    let aspect = 9.0 / 16.0;
+    let cam0 = kiosk_core::replay::initial_camera(&b.store, 0.8, DVec3::Y);
+    // Turn the view left so that the model's centre is 2.2 half-widths right of a portrait
+    // screen's centre: only the model's left edge is on screen (a 16:9 screen would show most).
+    let angle = (2.2 * aspect * (cam0.fov_y * 0.5).tan()).atan();
+    let dir = kiosk_core::camera::rotate(cam0.forward(), DVec3::Y, angle);
+    let cam = Camera { target: cam0.eye + dir * (center - cam0.eye).length(), ..cam0 };
+    let (x, _, _) = cam.ndc(center, aspect).expect("in front");
+    assert!((x - 2.2).abs() < 1e-6, "set-up: centre at x = {x}");
+    let settings = AcevitSettings { samples: 4096, sigma_xy: 0.5, sigma_depth: 0.5, min_radius: 0.0, aspect };
+    let pivot = Acevit::new(cam, settings)
+        .recenter(scene, &mut rand_pcg::Pcg64::seed_from_u64(5))
+        .expect("part of the model is on screen");
+    let (px, py, _) = cam.ndc(pivot, aspect).expect("pivot in front");
+    assert!(px.abs() <= 1.0 && py.abs() <= 1.0, "the pivot is off the portrait screen at ({px:.3}, {py:.3})");
+}

@@ -69,6 +69,7 @@ impl Explorer {
             settings.controller,
             min_distance,
             settings.up,
+            aspect,
         );
         let tolerance = match &controller {
             Controller::IsoCam(c) => c.settings.reproject_tolerance,

@@ -199,13 +199,15 @@ pub fn initial_camera<B: AsRef<[u8]>>(store: &Store<B>, fov_y: f64, up: DVec3) -
     Camera::framing(center, radius.max(f64::MIN_POSITIVE), from, up, fov_y)
 }
 
-/// Builds the controller of a replay (or of the kiosk).
+/// Builds the controller of a replay (or of the kiosk); `aspect` is the projection's width /
+/// height.
 pub fn make_controller<B: AsRef<[u8]>>(
     scene: SceneRef<'_, B>,
     cam: Camera,
     kind: ControllerKind,
     min_distance: f64,
     up: DVec3,
+    aspect: f64,
 ) -> Controller {
     match kind {
         ControllerKind::IsoCam => {
@@ -217,7 +219,13 @@ pub fn make_controller<B: AsRef<[u8]>>(
         ControllerKind::Trackball => Controller::Trackball(Trackball::new(cam, min_distance)),
         ControllerKind::Acevit => Controller::Acevit(Acevit::new(
             cam,
-            AcevitSettings { samples: 256, sigma_xy: 0.5, sigma_depth: 0.5, min_radius: min_distance },
+            AcevitSettings {
+                samples: 256,
+                sigma_xy: 0.5,
+                sigma_depth: 0.5,
+                min_radius: min_distance,
+                aspect,
+            },
         )),
     }
 }

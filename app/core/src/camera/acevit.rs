@@ -19,6 +19,8 @@ pub struct AcevitSettings {
     pub sigma_depth: f64,
     /// Closest allowed distance to the pivot.
     pub min_radius: f64,
+    /// Aspect ratio (width / height) of the projection: which samples are on screen.
+    pub aspect: f64,
 }
 
 /// The ACeViT controller.
@@ -79,7 +81,11 @@ impl Acevit {
         rng: &mut impl rand::Rng,
     ) -> Option<DVec3> {
         let pts = scene.store.sample_cut(scene.cut, self.settings.samples, rng);
-        let aspect = 16.0 / 9.0;
+        let aspect = if self.settings.aspect.is_finite() && self.settings.aspect > 0.0 {
+            self.settings.aspect
+        } else {
+            1.0
+        };
         let visible: Vec<(DVec3, f64, f64, f64)> = pts
             .into_iter()
             .filter_map(|p| {
