@@ -225,3 +225,72 @@ fn demo_exhibit_loads_and_plays(name: &str) {
     );
     assert_eq!(t.summary.collisions, 0, "{name}");
 }
+
+/// One frame of a driven exploration: the camera shown and the trace line.
+struct Driven {
+    cam: kiosk_core::camera::Camera,
+    frame: kiosk_core::replay::Frame,
+}
+
+/// Runs a script through an explorer (the replay's loop), keeping the cameras (the trace has no
+/// field of view) and the explorer at the end.
+fn drive(
+    ex: &Exhibit,
+    graph: &InfoGraph,
+    settings: &ReplaySettings,
+    script: &Script,
+) -> (Vec<Driven>, kiosk_core::explore::Explorer) {
+    let store = &ex.built.store;
+    let session = script.session();
+    let mut x = kiosk_core::explore::Explorer::new(store, Some(graph), settings, 0.0);
+    let dt = 1.0 / settings.fps;
+    let frames = ((session.duration() + settings.tail_secs) * settings.fps).ceil() as u64 + 1;
+    let (mut next, mut out) = (0, Vec::new());
+    for k in 0..frames {
+        let t = k as f64 * dt;
+        while next < session.events.len() && session.events[next].t <= t + 1e-9 {
+            x.touch(&session.events[next]);
+            next += 1;
+        }
+        let (frame, _) = x.step(store, Some(graph), t);
+        out.push(Driven { cam: x.camera(), frame });
+    }
+    (out, x)
+}
+
+fn state_of(d: &Driven) -> &str {
+    d.frame.recommender.as_deref().unwrap_or("")
+}
+
+#[test]
+fn a_menu_pick_during_a_proposal_counts_as_a_menu_pick() {
+    let ex = exhibit();
+    // "right" needs "back" first (mandatory): the engine proposes "back"; the menu offers "right".
+    let mut g = graph(vec![ex.orbited("back", 180.0), ex.orbited("right", 20.0)]);
+    g.edges.push(kiosk_core::graph::Edge { from: 0, to: 1, weight: 1.0 });
+    // Attract from 3 s, proposal from ~11 s; the menu opens at ~10.2 s and picks at ~12.1 s.
+    let script = Script::new()
+        .wait(9.5)
+        .down(1, 0.5, 0.5)
+        .wait(2.3)
+        .drag(&[(1, (0.5, 0.5), (0.5, 0.3))], 0.2)
+        .wait(0.1)
+        .up(1, 0.5, 0.3)
+        .wait(3.0)
+        .cancel(99);
+    let (run, x) = drive(&ex, &g, &ReplaySettings::default(), &script);
+    assert!(
+        run.iter().any(|d| state_of(d) == "propose" && d.frame.menu.is_some()),
+        "no proposal while the menu was open"
+    );
+    let s = &x.summary;
+    assert_eq!(s.nodes_displayed, vec!["right".to_string()], "{s:?}");
+    assert_eq!(s.menu_selections, 1, "{s:?}");
+    assert_eq!(s.proposals_accepted, 0, "the menu pick was counted as an accepted proposal: {s:?}");
+    assert_eq!(s.proposals_ignored, 1, "{s:?}");
+    let rec = x.recommender().expect("engine");
+    assert_eq!(rec.stats[0].refusals, 1, "the superseded proposal is not counted as refused");
+    // The pick's go-to reached the picked view.
+    let last = run.last().expect("frames");
+    assert!((last.cam.eye - g.nodes[1].view.eye).length() < 1e-6 * ex.center.length().max(1.0));
+}

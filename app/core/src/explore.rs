@@ -268,7 +268,12 @@ impl Explorer {
                 }
             }
             match (before, r.state) {
-                (RecState::Propose { .. }, RecState::GoTo { .. }) => self.summary.proposals_accepted += 1,
+                // A menu pick while a proposal is shown supersedes it: the pick is counted as a
+                // menu selection, the proposal as ignored.
+                (RecState::Propose { .. }, RecState::GoTo { .. }) => match rec_event {
+                    RecEvent::MenuSelect(_) => self.summary.proposals_ignored += 1,
+                    _ => self.summary.proposals_accepted += 1,
+                },
                 (RecState::Propose { .. }, RecState::Discover { .. }) => self.summary.proposals_ignored += 1,
                 _ => {}
             }

@@ -532,7 +532,14 @@ impl Recommender {
 
     fn go_to(&mut self, node: usize, now: f64, from_menu: bool, effects: &mut Vec<Effect>) {
         match self.state {
-            RecState::Propose { node: p, .. } => effects.push(Effect::HideInset { node: p }),
+            RecState::Propose { node: p, .. } => {
+                effects.push(Effect::HideInset { node: p });
+                if from_menu {
+                    // A menu pick supersedes the proposal: it counts as refused.
+                    self.stats[p].refusals += 1;
+                    self.stats[p].last_event = Some(now);
+                }
+            }
             RecState::Display { node: d, since, .. } => {
                 effects.push(Effect::HideOverlay { node: d });
                 effects.push(Effect::StopNarration { node: d });
