@@ -294,3 +294,52 @@ fn a_menu_pick_during_a_proposal_counts_as_a_menu_pick() {
     let last = run.last().expect("frames");
     assert!((last.cam.eye - g.nodes[1].view.eye).length() < 1e-6 * ex.center.length().max(1.0));
 }
+
+#[test]
+fn the_hidden_nudge_moves_each_controller_toward_the_attracting_view() {
+    use kiosk_core::camera::{Intent, SceneRef};
+    use kiosk_core::recommend::{RecSettings, RecState, Recommender, ViewContext};
+    use kiosk_core::replay::ControllerKind;
+    use rand::SeedableRng;
+    let ex = exhibit();
+    let store = &ex.built.store;
+    let g = graph(vec![ex.orbited("side", 60.0)]);
+    let goal = g.nodes[0].view.eye;
+    let settings = ReplaySettings::default();
+    let cut = kiosk_core::Cut::leaves(store);
+    let scene = SceneRef { store, cut: &cut };
+    let diag = scene.diagonal();
+    let cam0 = replay::initial_camera(store, settings.fov_y, settings.up);
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
+    let samples: Vec<DVec3> =
+        store.sample_cut(&cut, 64, &mut rng).into_iter().map(|p| store.to_model(p)).collect();
+    let mut rec = Recommender::new(&g, RecSettings::default(), 0.0);
+    rec.state = RecState::Attract { node: 0, since: 0.0 };
+    let aspect = 16.0 / 9.0;
+    for kind in [ControllerKind::IsoCam, ControllerKind::Trackball, ControllerKind::Acevit] {
+        let base = replay::make_controller(scene, cam0, kind, 0.01 * diag, DVec3::Y, aspect);
+        let ctx =
+            ViewContext { camera: base.camera(), aspect, samples: &samples, diagonal: diag, moving: true };
+        // Vertical motion, orthogonal to the way toward the side view (to the right).
+        for (what, intent) in [
+            ("hover", Intent { hover: (0.0, 0.05), ..Intent::default() }),
+            ("pan", Intent { pan: (0.0, 0.05), ..Intent::default() }),
+        ] {
+            let guided = kiosk_core::explore::guide_intent(&rec, &g, &ctx, intent, &base);
+            let (mut with, mut without) = (base.clone(), base.clone());
+            with.apply(scene, &guided, &mut rng);
+            without.apply(scene, &intent, &mut rng);
+            let d_with = (with.camera().eye - goal).length();
+            let d_without = (without.camera().eye - goal).length();
+            assert!(
+                d_with < d_without - 1e-3 * diag,
+                "{kind:?} {what}: the nudge moved away from the view ({d_with} vs {d_without} unguided)"
+            );
+            if what == "pan" && kind != ControllerKind::IsoCam {
+                // A trackball's pan stays a pan: the view direction does not turn.
+                let turn = with.camera().forward().dot(base.camera().forward());
+                assert!(turn > 1.0 - 1e-9, "{kind:?}: the pan turned the view (cos {turn})");
+            }
+        }
+    }
+}

@@ -1,17 +1,47 @@
 //! One visitor exploring one model: gestures → camera controller → recommender → radial menu,
 //! advanced one frame at a time at injected times. `replay` drives it from a session file; the
 //! kiosk drives it from a window's touch events. Both take exactly this path.
+//!
+//! The recommender's hidden guidance (thesis 11.4.1) is applied per controller
+//! ([`guide_intent`]): IsoCam hovers with two-finger pan too and moves the eye with the input;
+//! the trackballs keep pan as a pan and move the eye against the input.
 
-use crate::camera::{Camera, Controller, GoTo, SceneRef};
+use crate::camera::{Camera, Controller, GoTo, Intent, SceneRef};
 use crate::gesture::{Gestures, MenuEvent, TouchEvent};
 use crate::graph::InfoGraph;
 use crate::recommend::{
-    Effect, RecEvent, RecState, Recommender, ViewContext, ViewIndex, radial_candidates, slot_for_angle,
+    Effect, RecEvent, RecState, Recommender, Sense, ViewContext, ViewIndex, radial_candidates, slot_for_angle,
 };
 use crate::replay::{Frame, MenuTrace, ReplaySettings, Summary, initial_camera, make_controller};
 use crate::scene::{Cut, CutParams, Level, Store};
 use glam::DVec3;
 use rand::SeedableRng;
+
+/// The recommender's guidance of a frame's intent for this controller: IsoCam treats two-finger
+/// pan as hover and moves the eye with the input; the trackballs keep pan as a pan and move the
+/// eye against their input (they turn or slide the model under the finger), so their nudge is
+/// given in that sense. Either way the nudge moves the eye toward the attracting view.
+pub fn guide_intent(
+    rec: &Recommender,
+    graph: &InfoGraph,
+    ctx: &ViewContext<'_>,
+    intent: Intent,
+    controller: &Controller,
+) -> Intent {
+    let mut out = intent;
+    match controller {
+        Controller::IsoCam(_) => {
+            let h = (intent.hover.0 + intent.pan.0, intent.hover.1 + intent.pan.1);
+            out.hover = rec.guide(graph, ctx, h, Sense::WithInput);
+            out.pan = (0.0, 0.0);
+        }
+        Controller::Trackball(_) | Controller::Acevit(_) => {
+            out.hover = rec.guide(graph, ctx, intent.hover, Sense::AgainstInput);
+            out.pan = rec.guide(graph, ctx, intent.pan, Sense::AgainstInput);
+        }
+    }
+    out
+}
 
 /// The radial menu while it is open.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -228,9 +258,7 @@ impl Explorer {
         }
         let menu_open = self.gestures.menu_open();
         if let (Some(r), Some(g)) = (self.rec.as_ref(), graph) {
-            let h = r.guide(g, &ctx, (intent.hover.0 + intent.pan.0, intent.hover.1 + intent.pan.1));
-            intent.hover = h;
-            intent.pan = (0.0, 0.0);
+            intent = guide_intent(r, g, &ctx, intent, &self.controller);
         }
         let scene = SceneRef { store, cut: &self.cut };
         match self.goto {
