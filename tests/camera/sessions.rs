@@ -369,6 +369,42 @@ fn goto_eases_in_and_out_and_never_passes_through_the_model() {
 }
 
 #[test]
+fn zooming_out_is_bounded_and_eases_back_for_every_controller() {
+    let b = scan("scans/stanford-bunny/bun_zipper_res2.ply");
+    let center = b.store.to_model(b.store.bbox().center());
+    // Three pinches in, each a ninefold zoom out, then three seconds without a touch.
+    let script = Script::new()
+        .pinch(0.9, 0.1, 1.0)
+        .wait(0.1)
+        .pinch(0.9, 0.1, 1.0)
+        .wait(0.1)
+        .pinch(0.9, 0.1, 1.0)
+        .wait(3.0)
+        .cancel(99);
+    for kind in [ControllerKind::IsoCam, ControllerKind::Trackball, ControllerKind::Acevit] {
+        let trace = run(&b.store, &script, kind);
+        let dist: Vec<f64> = trace.frames.iter().map(|f| (v(f.eye) - center).length()).collect();
+        // The initial view is the framing view: the bound is three times its distance.
+        let bound = ReplaySettings::default().max_distance_factor * dist[0];
+        let far = dist.iter().copied().fold(0.0, f64::max);
+        assert!(far > bound, "{kind:?}: the pinches never reached the bound ({far} vs {bound})");
+        assert!(far <= 1.6 * bound, "{kind:?}: flew away to {:.2} × the bound", far / bound);
+        let last = *dist.last().expect("frames");
+        assert!(last <= bound * (1.0 + 1e-6), "{kind:?}: ended at {:.4} × the bound", last / bound);
+        // Smoothly: no jump from one frame to the next once the fingers are up.
+        let idle_from =
+            trace.frames.iter().position(|f| f.t > script.session().duration() - 2.9).expect("tail");
+        for w in dist[idle_from..].windows(2) {
+            assert!(
+                (w[1] - w[0]).abs() < 0.1 * bound,
+                "{kind:?}: jumped by {:.3} × the bound",
+                (w[1] - w[0]).abs() / bound
+            );
+        }
+    }
+}
+
+#[test]
 fn acevit_recentres_on_what_a_portrait_screen_shows() {
     use kiosk_core::camera::{Acevit, AcevitSettings, Camera, SceneRef};
     use rand::SeedableRng;

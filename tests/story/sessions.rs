@@ -263,6 +263,72 @@ fn state_of(d: &Driven) -> &str {
 }
 
 #[test]
+fn a_real_scale_projection_holds_through_a_go_to() {
+    let ex = exhibit();
+    let mut back = ex.orbited("back", 180.0);
+    back.view.fov_y = 0.8;
+    let g = graph(vec![back]);
+    // Proposed at ~11 s, accepted at ~12.7 s, displayed from ~14.7 s; then the visitor hovers.
+    let script = Script::new()
+        .wait(12.0)
+        .down(1, 0.5, 0.5)
+        .wait(1.0)
+        .up(1, 0.5, 0.5)
+        .wait(3.0)
+        .joystick(1, (0.15, 0.0), 2.0)
+        .cancel(99);
+    // Real scale: the configured field of view, every frame, the go-to included.
+    let real = ReplaySettings { fov_y: 0.6, real_scale: true, ..ReplaySettings::default() };
+    let (run, _) = drive(&ex, &g, &real, &script);
+    assert!(run.iter().any(|d| state_of(d) == "display"), "the node was never displayed");
+    for d in &run {
+        assert_eq!(d.cam.fov_y, 0.6, "t={}: field of view {} in real-scale mode", d.frame.t, d.cam.fov_y);
+    }
+    // Not real scale: the node's field of view frames its go-to; moving brings the configured
+    // one back.
+    let plain = ReplaySettings { fov_y: 0.6, ..ReplaySettings::default() };
+    let (run, _) = drive(&ex, &g, &plain, &script);
+    let shown = run.iter().find(|d| state_of(d) == "display").expect("displayed");
+    assert_eq!(shown.cam.fov_y, 0.8, "the go-to did not frame the node with its field of view");
+    let hover_end = script.session().duration() - 0.02;
+    let late = run.iter().rfind(|d| d.frame.t <= hover_end).expect("frames");
+    assert_ne!(state_of(late), "go-to");
+    assert!((late.cam.fov_y - 0.6).abs() < 0.01, "field of view {} after 2 s of hover", late.cam.fov_y);
+    for w in run.windows(2) {
+        assert!(
+            (w[1].cam.fov_y - w[0].cam.fov_y).abs() < 0.02,
+            "the field of view jumped at t={}",
+            w[1].frame.t
+        );
+    }
+}
+
+#[test]
+fn a_go_to_ends_exactly_at_a_view_steeper_than_the_tilt_limit() {
+    let ex = exhibit();
+    let diag = f64::from(ex.built.store.bbox().diagonal());
+    // Looking down at the bust, 4° from vertical (IsoCam's limit is 10°).
+    let tilt = 4f64.to_radians();
+    let eye = ex.center + DVec3::new(tilt.sin(), tilt.cos(), 0.0) * diag;
+    let g = graph(vec![node("above", eye, ex.center, 1.0)]);
+    let view = g.nodes[0].view;
+    assert!(kiosk_core::camera::exceeds_tilt_limit(&view, DVec3::Y, 10f64.to_radians()));
+    let t = ex
+        .run(&g, &Script::new().wait(12.0).down(1, 0.5, 0.5).wait(1.0).up(1, 0.5, 0.5).wait(3.0).cancel(99));
+    assert_eq!(t.summary.nodes_displayed, vec!["above".to_string()], "{:?}", states(&t));
+    let last = t.frames.last().expect("frames");
+    assert_eq!(last.overlay.as_deref(), Some("above"));
+    let forward = (DVec3::from_array(last.target) - DVec3::from_array(last.eye)).normalize();
+    assert!(
+        (forward - view.forward()).length() < 1e-9,
+        "the view was changed at the end of the go-to: {forward:?} vs {:?}",
+        view.forward()
+    );
+    assert!((DVec3::from_array(last.up) - view.up).length() < 1e-9);
+    assert!((DVec3::from_array(last.eye) - view.eye).length() < 1e-9 * diag.max(1.0));
+}
+
+#[test]
 fn a_menu_pick_during_a_proposal_counts_as_a_menu_pick() {
     let ex = exhibit();
     // "right" needs "back" first (mandatory): the engine proposes "back"; the menu offers "right".

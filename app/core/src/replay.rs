@@ -44,8 +44,15 @@ pub struct ReplaySettings {
     pub fps: f64,
     /// Viewport of the projection (pixels) for the cut.
     pub size_px: (u32, u32),
-    /// Vertical field of view (radians).
+    /// Vertical field of view (radians): the configured projection.
     pub fov_y: f64,
+    /// Whether `fov_y` is a real-scale projection (the angle the screen subtends at the viewer):
+    /// then it holds always, a node's own field of view is not used (see [`crate::explore`]).
+    pub real_scale: bool,
+    /// Farthest the eye may be from the model's centre, in framing distances (the distance of
+    /// the initial view, which shows the whole model); beyond it the camera eases back
+    /// (infinite: no bound).
+    pub max_distance_factor: f64,
     /// Seconds simulated after the last event.
     pub tail_secs: f64,
     /// The controller.
@@ -74,6 +81,8 @@ impl Default for ReplaySettings {
             fps: 60.0,
             size_px: (1920, 1080),
             fov_y: 0.8,
+            real_scale: false,
+            max_distance_factor: 3.0,
             tail_secs: 1.0,
             controller: ControllerKind::IsoCam,
             seed: 0,

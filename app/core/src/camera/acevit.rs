@@ -55,6 +55,16 @@ impl Acevit {
         self.pivot = cam.target;
     }
 
+    /// Replaces the camera, keeping the pivot.
+    pub fn move_camera(&mut self, cam: Camera) {
+        self.cam = cam;
+    }
+
+    /// Changes the vertical field of view, keeping the view and the pivot.
+    pub fn set_fov(&mut self, fov_y: f64) {
+        self.cam.fov_y = fov_y;
+    }
+
     /// Applies one frame's intent.
     pub fn apply<B: AsRef<[u8]>>(
         &mut self,

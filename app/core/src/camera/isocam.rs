@@ -139,6 +139,26 @@ impl IsoCam {
         self.twist = base.cross(up).dot(self.dir).atan2(base.dot(up));
     }
 
+    /// Changes the vertical field of view (the projection), keeping the eye and the view.
+    pub fn set_fov(&mut self, fov_y: f64) {
+        if fov_y.is_finite() && fov_y > 0.0 {
+            self.fov_y = fov_y;
+        }
+    }
+
+    /// Moves the eye to `eye`, keeping the view direction and the twist, and takes the
+    /// isolevel there (used to bring a far eye back toward the model; the caller keeps `eye`
+    /// out of the surface).
+    pub fn place_eye<B: AsRef<[u8]>>(&mut self, scene: SceneRef<'_, B>, eye: DVec3) {
+        if !eye.is_finite() {
+            return;
+        }
+        self.eye = eye;
+        if let Some(f) = self.fine(scene, eye) {
+            self.iso = (eye - f).length().max(self.settings.min_distance);
+        }
+    }
+
     /// The current isolevel (distance to the fine target).
     pub fn isolevel(&self) -> f64 {
         self.iso
