@@ -34,6 +34,9 @@ pub struct GestureSettings {
     pub pinch_gain: f64,
     /// Zoom bar: width of the left-edge bar (fraction of the screen width).
     pub zoom_bar_width: f64,
+    /// Zoom bar: its top (fraction of the screen height), below the kiosk's Back button.
+    #[serde(default = "default_zoom_bar_top")]
+    pub zoom_bar_top: f64,
     /// Zoom bar gain: zoom (log distance) per screen height dragged.
     pub zoom_bar_gain: f64,
     /// Menu: releasing within this distance of the press point cancels.
@@ -53,10 +56,23 @@ impl Default for GestureSettings {
             pan_gain: 1.0,
             pinch_gain: 1.0,
             zoom_bar_width: 0.08,
+            zoom_bar_top: default_zoom_bar_top(),
             zoom_bar_gain: 3.0,
             menu_cancel_radius: 0.05,
             aspect: 16.0 / 9.0,
         }
+    }
+}
+
+fn default_zoom_bar_top() -> f64 {
+    0.16
+}
+
+impl GestureSettings {
+    /// The zoom bar on the controller surface, `[x0, y0, x1, y1]` normalised (origin top-left):
+    /// where a touch starts the bar and where the shell draws it.
+    pub fn zoom_bar_rect(&self) -> [f64; 4] {
+        [0.0, self.zoom_bar_top, self.zoom_bar_width, 1.0]
     }
 }
 
@@ -264,6 +280,7 @@ impl Gestures {
                         drift: 0.0,
                     });
                     if f.start.x <= self.settings.zoom_bar_width * self.settings.aspect
+                        && f.start.y >= self.settings.zoom_bar_top
                         && self.fingers.len() == 1
                         && f.pos == f.start
                     {

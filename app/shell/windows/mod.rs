@@ -837,7 +837,7 @@ impl Running {
             card: (&title, thumb.as_ref()),
             page: (model, exhibits.len()),
             caption: caption.as_ref().map(|(a, b)| (a.as_str(), b.as_str())),
-            zoom_bar: self.kiosk.settings.explore.gestures.zoom_bar_width,
+            zoom_bar: self.kiosk.settings.explore.gestures.zoom_bar_rect(),
         };
         let target = self.controller.canvas.ui_view.clone();
         self.ctrl_painter
