@@ -93,3 +93,115 @@ fn hundred_thousand_hover_steps_keep_the_isolevel() {
     assert!(worst <= settings.reproject_tolerance);
     assert_eq!(iso.isolevel(), level);
 }
+
+/// IsoCam on the bunny's leaves, from the initial framing view.
+fn isocam_on_bunny(
+    cut: &kiosk_core::Cut,
+    edit: impl FnOnce(&mut IsoCamSettings),
+) -> (IsoCam, SceneRef<'_, memmap2::Mmap>) {
+    let b = bunny();
+    let scene = SceneRef { store: &b.store, cut };
+    let cam = kiosk_core::replay::initial_camera(&b.store, 0.8, glam::DVec3::Y);
+    let mut settings = IsoCamSettings::for_model(scene.diagonal());
+    edit(&mut settings);
+    (IsoCam::new(scene, cam, settings), scene)
+}
+
+#[test]
+fn zoom_moves_along_the_view_direction_after_a_hover() {
+    let cut = kiosk_core::Cut::leaves(&bunny().store);
+    let (mut iso, scene) = isocam_on_bunny(&cut, |_| {});
+    // One large hover: the smoothed view lags behind the new coarse target.
+    iso.hover(scene, (0.4, 0.15));
+    let before = iso.camera();
+    let to_coarse = (iso.coarse_target() - before.eye).normalize();
+    let lag = before.forward().dot(to_coarse).clamp(-1.0, 1.0).acos();
+    assert!(
+        lag > 1f64.to_radians(),
+        "view and coarse target agree ({:.3}°): nothing to test",
+        lag.to_degrees()
+    );
+    iso.zoom(scene, 0.3);
+    let after = iso.camera();
+    let moved = after.eye - before.eye;
+    assert!(moved.length() > 1e-3 * scene.diagonal(), "the zoom did not move");
+    let off_axis = moved.normalize().cross(before.forward()).length();
+    assert!(off_axis < 1e-9, "the eye left the line of sight (sin {off_axis:e})");
+    assert!(moved.dot(before.forward()) > 0.0, "zoom in went backward");
+    assert!((after.forward() - before.forward()).length() < 1e-12, "the view turned");
+}
+
+#[test]
+fn a_view_steeper_than_the_tilt_limit_is_kept_and_relaxes_without_a_snap() {
+    let b = bunny();
+    let cut = kiosk_core::Cut::leaves(&b.store);
+    let scene = SceneRef { store: &b.store, cut: &cut };
+    let settings = IsoCamSettings::for_model(scene.diagonal());
+    let center = b.store.to_model(b.store.bbox().center());
+    // Looking down, 4° from vertical (the limit is 10°).
+    let tilt = 4f64.to_radians();
+    let from = glam::DVec3::new(tilt.sin(), tilt.cos(), 0.0);
+    let eye = center + from * scene.diagonal();
+    let steep = kiosk_core::camera::Camera {
+        eye,
+        target: center,
+        up: kiosk_core::camera::orthonormal_up(-from, glam::DVec3::NEG_X, glam::DVec3::Z),
+        fov_y: 0.8,
+    };
+    assert!(settings.exceeds_tilt_limit(&steep));
+    assert!(!settings.exceeds_tilt_limit(&kiosk_core::replay::initial_camera(&b.store, 0.8, glam::DVec3::Y)));
+    // Reset (the end of a go-to) keeps the view exactly.
+    let mut iso = IsoCam::new(scene, steep, settings);
+    let c = iso.camera();
+    assert!((c.forward() - steep.forward()).length() < 1e-12, "{:?} vs {:?}", c.forward(), steep.forward());
+    assert!((c.up - steep.up).length() < 1e-9, "{:?} vs {:?}", c.up, steep.up);
+    assert_eq!(c.eye, steep.eye);
+    // Hovering relaxes it toward the limit a little at a time.
+    let mut prev = c.forward();
+    for _ in 0..300 {
+        iso.hover(scene, (0.02, 0.0));
+        let d = iso.camera().forward();
+        let turn = prev.dot(d).clamp(-1.0, 1.0).acos();
+        assert!(turn < 5f64.to_radians(), "the view snapped by {:.2}°", turn.to_degrees());
+        prev = d;
+    }
+    let tilt = iso.camera().forward().dot(glam::DVec3::Y).abs().acos().to_degrees();
+    assert!(!settings.exceeds_tilt_limit(&iso.camera()), "never relaxed to the limit (tilt {tilt:.2}°)");
+}
+
+#[test]
+fn a_hover_longer_than_the_step_cap_is_clamped_not_stretched() {
+    let cut = kiosk_core::Cut::leaves(&bunny().store);
+    let (mut iso, scene) = isocam_on_bunny(&cut, |s| s.max_steps_per_frame = 4);
+    let level = iso.isolevel();
+    let eye0 = iso.camera().eye;
+    // One viewport height: about 0.84 isolevels of travel, 17 steps of 5 %.
+    iso.hover(scene, (1.0, 0.0));
+    assert_eq!(iso.last.steps, 4);
+    let moved = (iso.camera().eye - eye0).length();
+    // At most 4 steps of 5 % of the isolevel (re-projection moves the eye a little more).
+    assert!(moved <= 4.0 * 0.05 * level * 1.1, "moved {:.3} isolevels", moved / level);
+    assert!(moved >= 4.0 * 0.05 * level * 0.5, "moved only {:.3} isolevels", moved / level);
+}
+
+#[test]
+fn iso_error_is_the_error_where_the_eye_ended() {
+    let cut = kiosk_core::Cut::leaves(&bunny().store);
+    // One re-projection per step and a single large step: re-projection stops after one move.
+    let (mut iso, scene) = isocam_on_bunny(&cut, |s| {
+        s.reproject_max_iterations = 1;
+        s.max_step = 1.0;
+    });
+    let level = iso.isolevel();
+    iso.hover(scene, (0.3, 0.2));
+    assert_eq!(iso.last.steps, 1);
+    let eye = iso.camera().eye;
+    let f = scene.store.fine_target(scene.cut, eye, &iso.settings.query).expect("target");
+    let actual = ((eye - f.point).length() - level).abs() / level;
+    assert!(
+        (iso.last.iso_error - actual).abs() <= 1e-12,
+        "reported {:e}, actual {:e}",
+        iso.last.iso_error,
+        actual
+    );
+}

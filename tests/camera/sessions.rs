@@ -367,3 +367,64 @@ fn goto_eases_in_and_out_and_never_passes_through_the_model() {
     let speed = |k: usize| (eyes[k + 1] - eyes[k]).length();
     assert!(speed(0) < 0.2 * speed(60) && speed(118) < 0.2 * speed(60));
 }
+
+#[test]
+fn zooming_out_is_bounded_and_eases_back_for_every_controller() {
+    let b = scan("scans/stanford-bunny/bun_zipper_res2.ply");
+    let center = b.store.to_model(b.store.bbox().center());
+    // Three pinches in, each a ninefold zoom out, then three seconds without a touch.
+    let script = Script::new()
+        .pinch(0.9, 0.1, 1.0)
+        .wait(0.1)
+        .pinch(0.9, 0.1, 1.0)
+        .wait(0.1)
+        .pinch(0.9, 0.1, 1.0)
+        .wait(3.0)
+        .cancel(99);
+    for kind in [ControllerKind::IsoCam, ControllerKind::Trackball, ControllerKind::Acevit] {
+        let trace = run(&b.store, &script, kind);
+        let dist: Vec<f64> = trace.frames.iter().map(|f| (v(f.eye) - center).length()).collect();
+        // The initial view is the framing view: the bound is three times its distance.
+        let bound = ReplaySettings::default().max_distance_factor * dist[0];
+        let far = dist.iter().copied().fold(0.0, f64::max);
+        assert!(far > bound, "{kind:?}: the pinches never reached the bound ({far} vs {bound})");
+        assert!(far <= 1.6 * bound, "{kind:?}: flew away to {:.2} × the bound", far / bound);
+        let last = *dist.last().expect("frames");
+        assert!(last <= bound * (1.0 + 1e-6), "{kind:?}: ended at {:.4} × the bound", last / bound);
+        // Smoothly: no jump from one frame to the next once the fingers are up.
+        let idle_from =
+            trace.frames.iter().position(|f| f.t > script.session().duration() - 2.9).expect("tail");
+        for w in dist[idle_from..].windows(2) {
+            assert!(
+                (w[1] - w[0]).abs() < 0.1 * bound,
+                "{kind:?}: jumped by {:.3} × the bound",
+                (w[1] - w[0]).abs() / bound
+            );
+        }
+    }
+}
+
+#[test]
+fn acevit_recentres_on_what_a_portrait_screen_shows() {
+    use kiosk_core::camera::{Acevit, AcevitSettings, Camera, SceneRef};
+    use rand::SeedableRng;
+    let b = scan("scans/stanford-bunny/bun_zipper_res2.ply");
+    let cut = kiosk_core::Cut::leaves(&b.store);
+    let scene = SceneRef { store: &b.store, cut: &cut };
+    let center = scene.center();
+    let aspect = 9.0 / 16.0;
+    let cam0 = kiosk_core::replay::initial_camera(&b.store, 0.8, DVec3::Y);
+    // Turn the view left so that the model's centre is 2.2 half-widths right of a portrait
+    // screen's centre: only the model's left edge is on screen (a 16:9 screen would show most).
+    let angle = (2.2 * aspect * (cam0.fov_y * 0.5).tan()).atan();
+    let dir = kiosk_core::camera::rotate(cam0.forward(), DVec3::Y, angle);
+    let cam = Camera { target: cam0.eye + dir * (center - cam0.eye).length(), ..cam0 };
+    let (x, _, _) = cam.ndc(center, aspect).expect("in front");
+    assert!((x - 2.2).abs() < 1e-6, "set-up: centre at x = {x}");
+    let settings = AcevitSettings { samples: 4096, sigma_xy: 0.5, sigma_depth: 0.5, min_radius: 0.0, aspect };
+    let pivot = Acevit::new(cam, settings)
+        .recenter(scene, &mut rand_pcg::Pcg64::seed_from_u64(5))
+        .expect("part of the model is on screen");
+    let (px, py, _) = cam.ndc(pivot, aspect).expect("pivot in front");
+    assert!(px.abs() <= 1.0 && py.abs() <= 1.0, "the pivot is off the portrait screen at ({px:.3}, {py:.3})");
+}

@@ -274,3 +274,187 @@ fn a_trace_never_replaces_its_session_and_a_recording_is_not_overwritten() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("longest session") && err.contains("line 3"), "{err}");
 }
+
+/// One frame of a driven exploration: the camera shown and the trace line.
+struct Driven {
+    cam: kiosk_core::camera::Camera,
+    frame: kiosk_core::replay::Frame,
+}
+
+/// Runs a script through an explorer (the replay's loop), keeping the cameras (the trace has no
+/// field of view) and the explorer at the end.
+fn drive(
+    ex: &Exhibit,
+    graph: &InfoGraph,
+    settings: &ReplaySettings,
+    script: &Script,
+) -> (Vec<Driven>, kiosk_core::explore::Explorer) {
+    let store = &ex.built.store;
+    let session = script.session();
+    let mut x = kiosk_core::explore::Explorer::new(store, Some(graph), settings, 0.0);
+    let dt = 1.0 / settings.fps;
+    let frames = ((session.duration() + settings.tail_secs) * settings.fps).ceil() as u64 + 1;
+    let (mut next, mut out) = (0, Vec::new());
+    for k in 0..frames {
+        let t = k as f64 * dt;
+        while next < session.events.len() && session.events[next].t <= t + 1e-9 {
+            x.touch(&session.events[next]);
+            next += 1;
+        }
+        let (frame, _) = x.step(store, Some(graph), t);
+        out.push(Driven { cam: x.camera(), frame });
+    }
+    (out, x)
+}
+
+fn state_of(d: &Driven) -> &str {
+    d.frame.recommender.as_deref().unwrap_or("")
+}
+
+#[test]
+fn a_real_scale_projection_holds_through_a_go_to() {
+    let ex = exhibit();
+    let mut back = ex.orbited("back", 180.0);
+    back.view.fov_y = 0.8;
+    let g = graph(vec![back]);
+    // Proposed at ~11 s, accepted at ~12.7 s, displayed from ~14.7 s; then the visitor hovers.
+    let script = Script::new()
+        .wait(12.0)
+        .down(1, 0.5, 0.5)
+        .wait(1.0)
+        .up(1, 0.5, 0.5)
+        .wait(3.0)
+        .joystick(1, (0.15, 0.0), 2.0)
+        .cancel(99);
+    // Real scale: the configured field of view, every frame, the go-to included.
+    let real = ReplaySettings { fov_y: 0.6, real_scale: true, ..ReplaySettings::default() };
+    let (run, _) = drive(&ex, &g, &real, &script);
+    assert!(run.iter().any(|d| state_of(d) == "display"), "the node was never displayed");
+    for d in &run {
+        assert_eq!(d.cam.fov_y, 0.6, "t={}: field of view {} in real-scale mode", d.frame.t, d.cam.fov_y);
+    }
+    // Not real scale: the node's field of view frames its go-to; moving brings the configured
+    // one back.
+    let plain = ReplaySettings { fov_y: 0.6, ..ReplaySettings::default() };
+    let (run, _) = drive(&ex, &g, &plain, &script);
+    let shown = run.iter().find(|d| state_of(d) == "display").expect("displayed");
+    assert_eq!(shown.cam.fov_y, 0.8, "the go-to did not frame the node with its field of view");
+    let hover_end = script.session().duration() - 0.02;
+    let late = run.iter().rfind(|d| d.frame.t <= hover_end).expect("frames");
+    assert_ne!(state_of(late), "go-to");
+    assert!((late.cam.fov_y - 0.6).abs() < 0.01, "field of view {} after 2 s of hover", late.cam.fov_y);
+    for w in run.windows(2) {
+        assert!(
+            (w[1].cam.fov_y - w[0].cam.fov_y).abs() < 0.02,
+            "the field of view jumped at t={}",
+            w[1].frame.t
+        );
+    }
+}
+
+#[test]
+fn a_go_to_ends_exactly_at_a_view_steeper_than_the_tilt_limit() {
+    let ex = exhibit();
+    let diag = f64::from(ex.built.store.bbox().diagonal());
+    // Looking down at the bust, 4° from vertical (IsoCam's limit is 10°).
+    let tilt = 4f64.to_radians();
+    let eye = ex.center + DVec3::new(tilt.sin(), tilt.cos(), 0.0) * diag;
+    let g = graph(vec![node("above", eye, ex.center, 1.0)]);
+    let view = g.nodes[0].view;
+    assert!(kiosk_core::camera::exceeds_tilt_limit(&view, DVec3::Y, 10f64.to_radians()));
+    let t = ex
+        .run(&g, &Script::new().wait(12.0).down(1, 0.5, 0.5).wait(1.0).up(1, 0.5, 0.5).wait(3.0).cancel(99));
+    assert_eq!(t.summary.nodes_displayed, vec!["above".to_string()], "{:?}", states(&t));
+    let last = t.frames.last().expect("frames");
+    assert_eq!(last.overlay.as_deref(), Some("above"));
+    let forward = (DVec3::from_array(last.target) - DVec3::from_array(last.eye)).normalize();
+    assert!(
+        (forward - view.forward()).length() < 1e-9,
+        "the view was changed at the end of the go-to: {forward:?} vs {:?}",
+        view.forward()
+    );
+    assert!((DVec3::from_array(last.up) - view.up).length() < 1e-9);
+    assert!((DVec3::from_array(last.eye) - view.eye).length() < 1e-9 * diag.max(1.0));
+}
+
+#[test]
+fn a_menu_pick_during_a_proposal_counts_as_a_menu_pick() {
+    let ex = exhibit();
+    // "right" needs "back" first (mandatory): the engine proposes "back"; the menu offers "right".
+    let mut g = graph(vec![ex.orbited("back", 180.0), ex.orbited("right", 20.0)]);
+    g.edges.push(kiosk_core::graph::Edge { from: 0, to: 1, weight: 1.0 });
+    // Attract from 3 s, proposal from ~11 s; the menu opens at ~10.2 s and picks at ~12.1 s.
+    let script = Script::new()
+        .wait(9.5)
+        .down(1, 0.5, 0.5)
+        .wait(2.3)
+        .drag(&[(1, (0.5, 0.5), (0.5, 0.3))], 0.2)
+        .wait(0.1)
+        .up(1, 0.5, 0.3)
+        .wait(3.0)
+        .cancel(99);
+    let (run, x) = drive(&ex, &g, &ReplaySettings::default(), &script);
+    assert!(
+        run.iter().any(|d| state_of(d) == "propose" && d.frame.menu.is_some()),
+        "no proposal while the menu was open"
+    );
+    let s = &x.summary;
+    assert_eq!(s.nodes_displayed, vec!["right".to_string()], "{s:?}");
+    assert_eq!(s.menu_selections, 1, "{s:?}");
+    assert_eq!(s.proposals_accepted, 0, "the menu pick was counted as an accepted proposal: {s:?}");
+    assert_eq!(s.proposals_ignored, 1, "{s:?}");
+    let rec = x.recommender().expect("engine");
+    assert_eq!(rec.stats[0].refusals, 1, "the superseded proposal is not counted as refused");
+    // The pick's go-to reached the picked view.
+    let last = run.last().expect("frames");
+    assert!((last.cam.eye - g.nodes[1].view.eye).length() < 1e-6 * ex.center.length().max(1.0));
+}
+
+#[test]
+fn the_hidden_nudge_moves_each_controller_toward_the_attracting_view() {
+    use kiosk_core::camera::{Intent, SceneRef};
+    use kiosk_core::recommend::{RecSettings, RecState, Recommender, ViewContext};
+    use kiosk_core::replay::ControllerKind;
+    use rand::SeedableRng;
+    let ex = exhibit();
+    let store = &ex.built.store;
+    let g = graph(vec![ex.orbited("side", 60.0)]);
+    let goal = g.nodes[0].view.eye;
+    let settings = ReplaySettings::default();
+    let cut = kiosk_core::Cut::leaves(store);
+    let scene = SceneRef { store, cut: &cut };
+    let diag = scene.diagonal();
+    let cam0 = replay::initial_camera(store, settings.fov_y, settings.up);
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
+    let samples: Vec<DVec3> =
+        store.sample_cut(&cut, 64, &mut rng).into_iter().map(|p| store.to_model(p)).collect();
+    let mut rec = Recommender::new(&g, RecSettings::default(), 0.0);
+    rec.state = RecState::Attract { node: 0, since: 0.0 };
+    let aspect = 16.0 / 9.0;
+    for kind in [ControllerKind::IsoCam, ControllerKind::Trackball, ControllerKind::Acevit] {
+        let base = replay::make_controller(scene, cam0, kind, 0.01 * diag, DVec3::Y, aspect);
+        let ctx =
+            ViewContext { camera: base.camera(), aspect, samples: &samples, diagonal: diag, moving: true };
+        // Vertical motion, orthogonal to the way toward the side view (to the right).
+        for (what, intent) in [
+            ("hover", Intent { hover: (0.0, 0.05), ..Intent::default() }),
+            ("pan", Intent { pan: (0.0, 0.05), ..Intent::default() }),
+        ] {
+            let guided = kiosk_core::explore::guide_intent(&rec, &g, &ctx, intent, &base);
+            let (mut with, mut without) = (base.clone(), base.clone());
+            with.apply(scene, &guided, &mut rng);
+            without.apply(scene, &intent, &mut rng);
+            let d_with = (with.camera().eye - goal).length();
+            let d_without = (without.camera().eye - goal).length();
+            assert!(
+                d_with < d_without - 1e-3 * diag,
+                "{kind:?} {what}: the nudge moved away from the view ({d_with} vs {d_without} unguided)"
+            );
+            if what == "pan" && kind != ControllerKind::IsoCam {
+                // A trackball's pan stays a pan: the view direction does not turn.
+                let turn = with.camera().forward().dot(base.camera().forward());
+                assert!(turn > 1.0 - 1e-9, "{kind:?}: the pan turned the view (cos {turn})");
+            }
+        }
+    }
+}

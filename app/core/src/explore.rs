@@ -1,17 +1,66 @@
 //! One visitor exploring one model: gestures → camera controller → recommender → radial menu,
 //! advanced one frame at a time at injected times. `replay` drives it from a session file; the
 //! kiosk drives it from a window's touch events. Both take exactly this path.
+//!
+//! The projection: the configured field of view ([`ReplaySettings::fov_y`]) holds. When it is a
+//! real-scale projection ([`ReplaySettings::real_scale`]), it holds always: a go-to ends at the
+//! node's eye, target and up with the configured field of view, never the node's. Otherwise a
+//! node's field of view frames its go-to (the animation ends at the node's exact view, so its
+//! overlay lines up) and stays while the visitor does not move; once the visitor moves again the
+//! field of view eases back to the configured one ([`FOV_EASE_SECS`]).
+//!
+//! The distance: the eye may be at most [`ReplaySettings::max_distance_factor`] framing
+//! distances (the initial view's distance, the whole model in view) from the model's centre.
+//! Beyond it (any controller), zooming out is damped to nothing at 1.5 times the bound and the
+//! camera eases back to the bound ([`DISTANCE_EASE_SECS`]), moving straight toward the centre
+//! with its view direction kept.
+//!
+//! The recommender's hidden guidance (thesis 11.4.1) is applied per controller
+//! ([`guide_intent`]): IsoCam hovers with two-finger pan too and moves the eye with the input;
+//! the trackballs keep pan as a pan and move the eye against the input.
 
-use crate::camera::{Camera, Controller, GoTo, SceneRef};
+use crate::camera::{Camera, Controller, GoTo, Intent, SceneRef};
 use crate::gesture::{Gestures, MenuEvent, TouchEvent};
 use crate::graph::InfoGraph;
 use crate::recommend::{
-    Effect, RecEvent, RecState, Recommender, ViewContext, ViewIndex, radial_candidates, slot_for_angle,
+    Effect, RecEvent, RecState, Recommender, Sense, ViewContext, ViewIndex, radial_candidates, slot_for_angle,
 };
 use crate::replay::{Frame, MenuTrace, ReplaySettings, Summary, initial_camera, make_controller};
 use crate::scene::{Cut, CutParams, Level, Store};
 use glam::DVec3;
 use rand::SeedableRng;
+
+/// Time constant (seconds) of the field of view's return to the configured one.
+pub const FOV_EASE_SECS: f64 = 0.4;
+
+/// Time constant (seconds) of the return to the distance bound.
+pub const DISTANCE_EASE_SECS: f64 = 0.3;
+
+/// The recommender's guidance of a frame's intent for this controller: IsoCam treats two-finger
+/// pan as hover and moves the eye with the input; the trackballs keep pan as a pan and move the
+/// eye against their input (they turn or slide the model under the finger), so their nudge is
+/// given in that sense. Either way the nudge moves the eye toward the attracting view.
+pub fn guide_intent(
+    rec: &Recommender,
+    graph: &InfoGraph,
+    ctx: &ViewContext<'_>,
+    intent: Intent,
+    controller: &Controller,
+) -> Intent {
+    let mut out = intent;
+    match controller {
+        Controller::IsoCam(_) => {
+            let h = (intent.hover.0 + intent.pan.0, intent.hover.1 + intent.pan.1);
+            out.hover = rec.guide(graph, ctx, h, Sense::WithInput);
+            out.pan = (0.0, 0.0);
+        }
+        Controller::Trackball(_) | Controller::Acevit(_) => {
+            out.hover = rec.guide(graph, ctx, intent.hover, Sense::AgainstInput);
+            out.pan = rec.guide(graph, ctx, intent.pan, Sense::AgainstInput);
+        }
+    }
+    out
+}
 
 /// The radial menu while it is open.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -40,6 +89,8 @@ pub struct Explorer {
     diag: f64,
     min_distance: f64,
     aspect: f64,
+    center: DVec3,
+    max_distance: f64,
     tolerance: f64,
     /// Counts over the exploration.
     pub summary: Summary,
@@ -59,6 +110,9 @@ impl Explorer {
         let min_distance = settings.min_distance_fraction * diag;
         let aspect = f64::from(settings.size_px.0) / f64::from(settings.size_px.1.max(1));
         let cam0 = initial_camera(store, settings.fov_y, settings.up);
+        let center = store.to_model(store.bbox().center());
+        // At least the framing distance (NaN: that); infinite: no bound.
+        let max_distance = settings.max_distance_factor.max(1.0) * (cam0.eye - center).length();
         let mut cut = Cut::root(store);
         if let Some(v) = cam0.view_params(store, settings.size_px) {
             cut.update(store, &v, &CutParams { max_changes: usize::MAX, ..settings.cut });
@@ -69,6 +123,7 @@ impl Explorer {
             settings.controller,
             min_distance,
             settings.up,
+            aspect,
         );
         let tolerance = match &controller {
             Controller::IsoCam(c) => c.settings.reproject_tolerance,
@@ -88,6 +143,8 @@ impl Explorer {
             diag,
             min_distance,
             aspect,
+            center,
+            max_distance,
             tolerance,
             summary: Summary { min_surface_distance: f64::INFINITY, ..Summary::default() },
             autopilot: false,
@@ -134,6 +191,16 @@ impl Explorer {
     /// The minimum distance to the surface in force.
     pub fn min_distance(&self) -> f64 {
         self.min_distance
+    }
+
+    /// The farthest the eye may be from the model's centre (it eases back from beyond).
+    pub fn max_distance(&self) -> f64 {
+        self.max_distance
+    }
+
+    /// The model's centre (the distance bound is measured from it).
+    pub fn center(&self) -> DVec3 {
+        self.center
     }
 
     /// Whether a go-to animation runs.
@@ -227,9 +294,7 @@ impl Explorer {
         }
         let menu_open = self.gestures.menu_open();
         if let (Some(r), Some(g)) = (self.rec.as_ref(), graph) {
-            let h = r.guide(g, &ctx, (intent.hover.0 + intent.pan.0, intent.hover.1 + intent.pan.1));
-            intent.hover = h;
-            intent.pan = (0.0, 0.0);
+            intent = guide_intent(r, g, &ctx, intent, &self.controller);
         }
         let scene = SceneRef { store, cut: &self.cut };
         match self.goto {
@@ -241,7 +306,33 @@ impl Explorer {
             }
             None => {
                 if !menu_open {
+                    // Zooming out beyond the distance bound is damped, to nothing at 1.5 × it.
+                    let d = (self.controller.camera().eye - self.center).length();
+                    if intent.zoom < 0.0 && d > self.max_distance {
+                        intent.zoom *=
+                            ((1.5 * self.max_distance - d) / (0.5 * self.max_distance)).clamp(0.0, 1.0);
+                    }
                     self.controller.apply(scene, &intent, &mut self.rng);
+                    // The visitor moves: the configured projection comes back.
+                    let fov = self.controller.camera().fov_y;
+                    if !intent.is_idle() && fov != settings.fov_y {
+                        let k = 1.0 - (-dt / FOV_EASE_SECS).exp();
+                        let next = fov + (settings.fov_y - fov) * k;
+                        let done = (next - settings.fov_y).abs() <= 1e-4 * settings.fov_y.abs();
+                        self.controller.set_fov(if done { settings.fov_y } else { next });
+                    }
+                    // Beyond the distance bound: ease back.
+                    let d = (self.controller.camera().eye - self.center).length();
+                    if d > self.max_distance {
+                        let k = (-dt / DISTANCE_EASE_SECS).exp();
+                        let back = self.max_distance + (d - self.max_distance) * k;
+                        let back = if back - self.max_distance <= 1e-9 * self.max_distance {
+                            self.max_distance
+                        } else {
+                            back
+                        };
+                        self.controller.pull_toward(scene, self.center, back);
+                    }
                 }
             }
         }
@@ -253,12 +344,13 @@ impl Explorer {
             for fx in &effects {
                 match *fx {
                     Effect::StartGoTo { node, duration } => {
-                        self.goto = Some(GoTo {
-                            from: self.controller.camera(),
-                            to: g.nodes[node].view,
-                            start: t,
-                            duration,
-                        });
+                        let mut to = g.nodes[node].view;
+                        if settings.real_scale {
+                            // A real-scale projection holds: the node's view at the configured
+                            // field of view.
+                            to.fov_y = settings.fov_y;
+                        }
+                        self.goto = Some(GoTo { from: self.controller.camera(), to, start: t, duration });
                     }
                     Effect::ShowOverlay { node } => {
                         self.summary.nodes_displayed.push(g.nodes[node].id.clone())
@@ -267,7 +359,12 @@ impl Explorer {
                 }
             }
             match (before, r.state) {
-                (RecState::Propose { .. }, RecState::GoTo { .. }) => self.summary.proposals_accepted += 1,
+                // A menu pick while a proposal is shown supersedes it: the pick is counted as a
+                // menu selection, the proposal as ignored.
+                (RecState::Propose { .. }, RecState::GoTo { .. }) => match rec_event {
+                    RecEvent::MenuSelect(_) => self.summary.proposals_ignored += 1,
+                    _ => self.summary.proposals_accepted += 1,
+                },
                 (RecState::Propose { .. }, RecState::Discover { .. }) => self.summary.proposals_ignored += 1,
                 _ => {}
             }

@@ -34,6 +34,9 @@ pub struct GestureSettings {
     pub pinch_gain: f64,
     /// Zoom bar: width of the left-edge bar (fraction of the screen width).
     pub zoom_bar_width: f64,
+    /// Zoom bar: its top (fraction of the screen height), below the kiosk's Back button.
+    #[serde(default = "default_zoom_bar_top")]
+    pub zoom_bar_top: f64,
     /// Zoom bar gain: zoom (log distance) per screen height dragged.
     pub zoom_bar_gain: f64,
     /// Menu: releasing within this distance of the press point cancels.
@@ -53,10 +56,23 @@ impl Default for GestureSettings {
             pan_gain: 1.0,
             pinch_gain: 1.0,
             zoom_bar_width: 0.08,
+            zoom_bar_top: default_zoom_bar_top(),
             zoom_bar_gain: 3.0,
             menu_cancel_radius: 0.05,
             aspect: 16.0 / 9.0,
         }
+    }
+}
+
+fn default_zoom_bar_top() -> f64 {
+    0.16
+}
+
+impl GestureSettings {
+    /// The zoom bar on the controller surface, `[x0, y0, x1, y1]` normalised (origin top-left):
+    /// where a touch starts the bar and where the shell draws it.
+    pub fn zoom_bar_rect(&self) -> [f64; 4] {
+        [0.0, self.zoom_bar_top, self.zoom_bar_width, 1.0]
     }
 }
 
@@ -249,7 +265,7 @@ impl Gestures {
     }
 
     /// Chooses the mode after fingers were added or removed.
-    fn regroup(&mut self, _t: f64) {
+    fn regroup(&mut self, t: f64) {
         self.mode = match self.fingers.len() {
             0 => Mode::Idle,
             1 => {
@@ -264,15 +280,22 @@ impl Gestures {
                         drift: 0.0,
                     });
                     if f.start.x <= self.settings.zoom_bar_width * self.settings.aspect
+                        && f.start.y >= self.settings.zoom_bar_top
                         && self.fingers.len() == 1
                         && f.pos == f.start
                     {
                         Mode::ZoomBar { last_y: f.pos.y }
                     } else {
                         // A finger left behind after a two-finger gesture restarts the joystick
-                        // from where it is, so the camera does not jump.
+                        // from where it is, so the camera does not jump, and starts a fresh long
+                        // press: its stillness during the pinch does not count toward one. A
+                        // finger spent by a closed menu stays spent.
                         if let Some(f) = self.fingers.values_mut().next() {
                             f.start = f.pos;
+                            f.down_t = t;
+                            if f.drift.is_finite() {
+                                f.drift = 0.0;
+                            }
                         }
                         Mode::Joystick
                     }
@@ -458,6 +481,38 @@ mod tests {
         g.menu_cancel();
         assert!(!g.menu_open());
         assert!(matches!(g.take_menu_events()[..], [MenuEvent::Open { .. }, MenuEvent::Cancel]));
+    }
+
+    #[test]
+    fn the_finger_left_after_a_pinch_starts_a_fresh_long_press() {
+        let mut g = Gestures::new(GestureSettings::default());
+        let dt = 1.0 / 60.0;
+        // The thumb stays still at (0.4, 0.5) while the other finger pinches out for a second.
+        g.event(&ev(0.0, TouchKind::Down, 1, 0.4, 0.5));
+        g.event(&ev(0.0, TouchKind::Down, 2, 0.6, 0.5));
+        let mut t = 0.0;
+        while t < 1.0 {
+            t += dt;
+            g.event(&ev(t, TouchKind::Move, 2, 0.6 + 0.2 * t, 0.5));
+            g.frame(t, dt);
+        }
+        g.event(&ev(t, TouchKind::Up, 2, 0.8, 0.5));
+        // Right after the pinch the thumb is a joystick at rest, not a long press.
+        g.frame(t + dt, dt);
+        assert!(!g.menu_open(), "the menu opened as the pinch ended");
+        assert!(g.take_menu_events().is_empty());
+        // Held still for the long-press time from the end of the pinch, it asks for the menu.
+        let end = t;
+        while t < end + 0.6 {
+            t += dt;
+            g.frame(t, dt);
+        }
+        assert!(!g.menu_open(), "opened before the long-press time counted from the pinch's end");
+        while t < end + 0.8 {
+            t += dt;
+            g.frame(t, dt);
+        }
+        assert!(g.menu_open());
     }
 
     #[test]

@@ -480,3 +480,31 @@ pub fn run_session<B: AsRef<[u8]>>(
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gesture::{GestureSettings, Gestures, TouchEvent, TouchKind};
+
+    fn overlap(a: [f64; 4], b: [f64; 4]) -> bool {
+        a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3]
+    }
+
+    #[test]
+    fn no_button_of_the_exploration_overlaps_the_zoom_bar() {
+        let settings = GestureSettings::default();
+        let bar = settings.zoom_bar_rect();
+        for b in buttons(Mode::Explore) {
+            assert!(!overlap(b.rect, bar), "{:?} at {:?} overlaps the zoom bar at {bar:?}", b.kind, b.rect);
+        }
+        // The bar is where the gestures take it: a touch in it zooms, one above it does not.
+        let zooms = |y: f64| {
+            let mut g = Gestures::new(settings);
+            g.event(&TouchEvent { t: 0.0, ev: TouchKind::Down, id: 1, x: 0.5 * bar[2], y });
+            g.event(&TouchEvent { t: 0.1, ev: TouchKind::Move, id: 1, x: 0.5 * bar[2], y: y - 0.05 });
+            g.frame(0.1, 1.0 / 60.0).zoom != 0.0
+        };
+        assert!(zooms(0.6));
+        assert!(!zooms(bar[1] - 0.02));
+    }
+}

@@ -532,7 +532,14 @@ impl Recommender {
 
     fn go_to(&mut self, node: usize, now: f64, from_menu: bool, effects: &mut Vec<Effect>) {
         match self.state {
-            RecState::Propose { node: p, .. } => effects.push(Effect::HideInset { node: p }),
+            RecState::Propose { node: p, .. } => {
+                effects.push(Effect::HideInset { node: p });
+                if from_menu {
+                    // A menu pick supersedes the proposal: it counts as refused.
+                    self.stats[p].refusals += 1;
+                    self.stats[p].last_event = Some(now);
+                }
+            }
             RecState::Display { node: d, since, .. } => {
                 effects.push(Effect::HideOverlay { node: d });
                 effects.push(Effect::StopNarration { node: d });
@@ -628,8 +635,16 @@ impl Recommender {
 
     /// Guidance (11.4.1) of a hover intent while attracting: adds the component of the
     /// direction toward the node's eye (in screen units) orthogonal to the motion, scaled by the
-    /// motion; slows the motion near the view (friction). Returns the new hover.
-    pub fn guide(&self, graph: &InfoGraph, ctx: &ViewContext<'_>, hover: (f64, f64)) -> (f64, f64) {
+    /// motion; slows the motion near the view (friction). `sense` says which way the
+    /// controller moves the eye on screen for this input, so that the nudge moves the eye
+    /// toward the node's. Returns the new motion.
+    pub fn guide(
+        &self,
+        graph: &InfoGraph,
+        ctx: &ViewContext<'_>,
+        hover: (f64, f64),
+        sense: Sense,
+    ) -> (f64, f64) {
         let RecState::Attract { node, .. } = self.state else { return hover };
         let m = DVec2::new(hover.0, hover.1);
         let speed = m.length();
@@ -641,6 +656,11 @@ impl Recommender {
         let right = cam.right();
         let up = right.cross(cam.forward());
         let Some(toward) = DVec2::new(to.dot(right), to.dot(up)).try_normalize() else { return hover };
+        // The input that moves the eye toward the node's eye.
+        let toward = match sense {
+            Sense::WithInput => toward,
+            Sense::AgainstInput => -toward,
+        };
         let along = m / speed;
         let ortho = toward - along * toward.dot(along);
         let mut out = m + ortho * (self.settings.nudge_gain * speed);
@@ -649,6 +669,16 @@ impl Recommender {
         }
         (out.x, out.y)
     }
+}
+
+/// Which way a controller moves the eye on screen for a motion input (x right, y up).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sense {
+    /// The eye moves with the input (IsoCam's hover: finger right, camera right).
+    WithInput,
+    /// The eye moves against it (the trackballs turn and pan the model under the finger: finger
+    /// right, camera left).
+    AgainstInput,
 }
 
 /// The radial point-of-interest selector (thesis 9.4, 9.7.2).

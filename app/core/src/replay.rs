@@ -55,8 +55,15 @@ pub struct ReplaySettings {
     pub fps: f64,
     /// Viewport of the projection (pixels) for the cut.
     pub size_px: (u32, u32),
-    /// Vertical field of view (radians).
+    /// Vertical field of view (radians): the configured projection.
     pub fov_y: f64,
+    /// Whether `fov_y` is a real-scale projection (the angle the screen subtends at the viewer):
+    /// then it holds always, a node's own field of view is not used (see [`crate::explore`]).
+    pub real_scale: bool,
+    /// Farthest the eye may be from the model's centre, in framing distances (the distance of
+    /// the initial view, which shows the whole model); beyond it the camera eases back
+    /// (infinite: no bound).
+    pub max_distance_factor: f64,
     /// Seconds simulated after the last event.
     pub tail_secs: f64,
     /// The controller.
@@ -85,6 +92,8 @@ impl Default for ReplaySettings {
             fps: 60.0,
             size_px: (1920, 1080),
             fov_y: 0.8,
+            real_scale: false,
+            max_distance_factor: 3.0,
             tail_secs: 1.0,
             controller: ControllerKind::IsoCam,
             seed: 0,
@@ -229,13 +238,15 @@ pub fn initial_camera<B: AsRef<[u8]>>(store: &Store<B>, fov_y: f64, up: DVec3) -
     Camera::framing(center, radius.max(f64::MIN_POSITIVE), from, up, fov_y)
 }
 
-/// Builds the controller of a replay (or of the kiosk).
+/// Builds the controller of a replay (or of the kiosk); `aspect` is the projection's width /
+/// height.
 pub fn make_controller<B: AsRef<[u8]>>(
     scene: SceneRef<'_, B>,
     cam: Camera,
     kind: ControllerKind,
     min_distance: f64,
     up: DVec3,
+    aspect: f64,
 ) -> Controller {
     match kind {
         ControllerKind::IsoCam => {
@@ -247,7 +258,13 @@ pub fn make_controller<B: AsRef<[u8]>>(
         ControllerKind::Trackball => Controller::Trackball(Trackball::new(cam, min_distance)),
         ControllerKind::Acevit => Controller::Acevit(Acevit::new(
             cam,
-            AcevitSettings { samples: 256, sigma_xy: 0.5, sigma_depth: 0.5, min_radius: min_distance },
+            AcevitSettings {
+                samples: 256,
+                sigma_xy: 0.5,
+                sigma_depth: 0.5,
+                min_radius: min_distance,
+                aspect,
+            },
         )),
     }
 }

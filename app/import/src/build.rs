@@ -1288,7 +1288,7 @@ fn leaf_pairs<T>(leaf: &[Work], rule: MergeRule, mut pair: impl FnMut(u64) -> T)
         for j in i + 1..m {
             let d2 = (leaf[i].pos - leaf[j].pos).length_squared();
             let short = rule.reach.is_none_or(|f| d2 <= (f * leaf[i].radius.max(leaf[j].radius)).powi(2));
-            if short && rule.normal_cos.is_none_or(|c| leaf[i].normal.dot(leaf[j].normal) >= c) {
+            if short && rule.normal_cos.is_none_or(|c| compatible(leaf[i].normal, leaf[j].normal, c)) {
                 let k = u64::from(d2.to_bits()) << 32 | (i as u64) << 8 | j as u64;
                 key[i][j] = k;
                 key[j][i] = k;
@@ -1351,7 +1351,9 @@ fn pair_ends(key: u64) -> (usize, usize) {
 
 fn merge(a: &Work, b: &Work) -> Work {
     let (wa, wb) = (a.radius * a.radius, b.radius * b.radius);
-    let normal = (a.normal * wa + b.normal * wb).try_normalize().unwrap_or(a.normal);
+    // Normals are oriented only away from their region's centroid: b's is turned to a's side.
+    let bn = if a.normal.dot(b.normal) < 0.0 { -b.normal } else { b.normal };
+    let normal = (a.normal * wa + bn * wb).try_normalize().unwrap_or(a.normal);
     // Equal colours blend to themselves (the weighted mean of c and c rounds back to c): a scan
     // without colours, or a region of one colour, skips the arithmetic.
     let color = if a.color == b.color { a.color } else { blend(a.color, wa, b.color, wb) };
@@ -1361,6 +1363,13 @@ fn merge(a: &Work, b: &Work) -> Work {
         radius: (a.pos - b.pos).length() * 0.5 + a.radius.max(b.radius),
         color,
     }
+}
+
+/// Whether two normals are within the angle of cosine `cos` of each other, whichever way each
+/// points: estimated normals are oriented only away from their region's centroid, so a normal
+/// and its opposite describe the same surface.
+fn compatible(a: Vec3, b: Vec3, cos: f32) -> bool {
+    a.dot(b).abs() >= cos
 }
 
 /// The mean of colours `a` and `b` weighted by `wa` and `wb`, rounded to the nearest level.
@@ -1386,7 +1395,7 @@ mod tests {
                     let d2 = (leaf[i].pos - leaf[j].pos).length_squared();
                     let r = leaf[i].radius.max(leaf[j].radius);
                     if rule.reach.is_none_or(|f| d2 <= (f * r).powi(2))
-                        && rule.normal_cos.is_none_or(|c| leaf[i].normal.dot(leaf[j].normal) >= c)
+                        && rule.normal_cos.is_none_or(|c| leaf[i].normal.dot(leaf[j].normal).abs() >= c)
                     {
                         keys.push(u64::from(d2.to_bits()) << 32 | (i as u64) << 8 | j as u64);
                     }
@@ -1423,8 +1432,12 @@ mod tests {
                         rng.random_range(0..8) as f32,
                         rng.random_range(0..3) as f32,
                     ),
-                    normal: Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), 1.0)
-                        .normalize(),
+                    normal: Vec3::new(
+                        rng.random_range(-1.0..1.0),
+                        rng.random_range(-1.0..1.0),
+                        if rng.random() { 1.0 } else { -1.0 },
+                    )
+                    .normalize(),
                     radius: rng.random_range(0.2..2.0),
                     color: [0; 4],
                 })
@@ -1631,6 +1644,26 @@ mod tests {
     }
 
     #[test]
+    fn normals_of_opposite_orientation_are_compatible_and_merge_into_one_plane() {
+        // Two neighbours on the plane z = 0, their normals oriented either way (away from two
+        // region centroids on either side).
+        let a = Work { pos: Vec3::ZERO, normal: Vec3::Z, radius: 0.8, color: [0; 4] };
+        let b =
+            Work { pos: Vec3::X, normal: -Vec3::new(0.1, 0.0, 1.0).normalize(), radius: 0.8, color: [0; 4] };
+        let rule = MergeRule { normal_cos: Some(0.5), reach: Some(MERGE_REACH) };
+        assert_eq!(leaf_pairs(&[a, b], rule, |k| k).len(), 1, "the pair is compatible");
+        // A normal at 80° is not, whichever way it points.
+        let c = Work { normal: Vec3::new(1.0, 0.0, 0.18).normalize(), ..b };
+        assert!(leaf_pairs(&[a, c], rule, |k| k).is_empty());
+        assert!(leaf_pairs(&[a, Work { normal: -c.normal, ..c }], rule, |k| k).is_empty());
+        // The merge keeps the plane (not the cancelled sum of opposite normals).
+        let m = merge(&a, &b);
+        assert!(m.normal.dot(Vec3::Z) > 0.99, "{:?}", m.normal);
+        // Simplification merges them.
+        assert_eq!(simplify(vec![a, b], 1, 2, 0.5).len(), 1);
+    }
+
+    #[test]
     fn simplification_halves_by_short_merges_and_reaches_m_by_any() {
         // A 4 × 4 grid (spacing 1, radius 0.8) and two samples far from it and from each other.
         let sample =
@@ -1679,12 +1712,13 @@ mod tests {
             "{:?}",
             out.iter().map(|w| w.radius).collect::<Vec<_>>()
         );
-        // Neighbours with opposite normals: no pair within those ranges; the leaves have pairs
-        // two apart (within 3 radii).
+        // Neighbours with perpendicular normals (opposite ones are compatible: normals are
+        // oriented only away from a centroid): no pair within those ranges; the leaves have
+        // pairs two apart (within 3 radii).
         let out =
-            simplify_pass(&line(&|i| if i % 2 == 0 { Vec3::Z } else { -Vec3::Z }), 60, rule).expect("pairs");
+            simplify_pass(&line(&|i| if i % 2 == 0 { Vec3::Z } else { Vec3::X }), 60, rule).expect("pairs");
         assert_eq!(out.len(), 60);
-        assert!(out.iter().all(|w| w.normal.z.abs() == 1.0));
+        assert!(out.iter().all(|w| w.normal == Vec3::Z || w.normal == Vec3::X));
         assert_eq!(out.iter().filter(|w| w.radius > 1.0 + 0.8 - 0.01).count(), 4);
     }
 

@@ -92,8 +92,8 @@ pub struct ControllerView<'a> {
     pub page: (usize, usize),
     /// Captions of the narration playing (title, text).
     pub caption: Option<(&'a str, &'a str)>,
-    /// Width of the zoom bar (fraction of the height).
-    pub zoom_bar: f64,
+    /// The zoom bar, `[x0, y0, x1, y1]` normalised (where the gestures take it).
+    pub zoom_bar: [f64; 4],
 }
 
 /// Draws the controller window (no model content: the visitor looks at the wall; thesis
@@ -165,10 +165,11 @@ pub fn controller(ctx: &egui::Context, v: &ControllerView<'_>) {
             }
         }
         Mode::Explore => {
-            let bar =
-                Rect::from_min_max(Pos2::ZERO, pos2(screen.width() * v.zoom_bar as f32, screen.height()));
-            let bar =
-                Rect::from_min_max(pos2(0.0, screen.height() * 0.16), pos2(bar.right(), screen.height()));
+            let r = v.zoom_bar;
+            let bar = Rect::from_min_max(
+                pos2(screen.width() * r[0] as f32, screen.height() * r[1] as f32),
+                pos2(screen.width() * r[2] as f32, screen.height() * r[3] as f32),
+            );
             p.rect_filled(bar, 0.0, Color32::from_gray(30));
             p.text(
                 pos2(bar.center().x, bar.top() + 24.0),

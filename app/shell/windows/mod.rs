@@ -139,7 +139,13 @@ pub fn load_exhibits(config: &Config) -> anyhow::Result<Vec<Exhibit>> {
 /// The kiosk's behaviour settings from the configuration, for a projection of `size` pixels and
 /// a controller of aspect `controller_aspect`.
 pub fn kiosk_settings(config: &Config, size: (u32, u32), controller_aspect: f64, seed: u64) -> KioskSettings {
-    let mut explore = ReplaySettings { size_px: size, fov_y: config.fov_y(), seed, ..Default::default() };
+    let mut explore = ReplaySettings {
+        size_px: size,
+        fov_y: config.fov_y(),
+        real_scale: config.real_scale.is_some(),
+        seed,
+        ..Default::default()
+    };
     explore.cut.tolerance_px = config.tolerance_px;
     explore.gestures.aspect = controller_aspect;
     KioskSettings {
@@ -838,7 +844,7 @@ impl Running {
             card: (&title, thumb.as_ref()),
             page: (model, exhibits.len()),
             caption: caption.as_ref().map(|(a, b)| (a.as_str(), b.as_str())),
-            zoom_bar: self.kiosk.settings.explore.gestures.zoom_bar_width,
+            zoom_bar: self.kiosk.settings.explore.gestures.zoom_bar_rect(),
         };
         let target = self.controller.canvas.ui_view.clone();
         self.ctrl_painter

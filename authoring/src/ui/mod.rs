@@ -114,6 +114,7 @@ impl AuthorApp {
             ControllerKind::IsoCam,
             0.01 * diag,
             glam::DVec3::Y,
+            f64::from(LIVE_SIZE.0) / f64::from(LIVE_SIZE.1.max(1)),
         );
         let lang = project.graph.default_lang.clone();
         let mut log: Vec<String> = problems.iter().map(|p| format!("on open: {p}")).collect();

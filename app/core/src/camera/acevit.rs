@@ -19,6 +19,8 @@ pub struct AcevitSettings {
     pub sigma_depth: f64,
     /// Closest allowed distance to the pivot.
     pub min_radius: f64,
+    /// Aspect ratio (width / height) of the projection: which samples are on screen.
+    pub aspect: f64,
 }
 
 /// The ACeViT controller.
@@ -53,6 +55,16 @@ impl Acevit {
         self.pivot = cam.target;
     }
 
+    /// Replaces the camera, keeping the pivot.
+    pub fn move_camera(&mut self, cam: Camera) {
+        self.cam = cam;
+    }
+
+    /// Changes the vertical field of view, keeping the view and the pivot.
+    pub fn set_fov(&mut self, fov_y: f64) {
+        self.cam.fov_y = fov_y;
+    }
+
     /// Applies one frame's intent.
     pub fn apply<B: AsRef<[u8]>>(
         &mut self,
@@ -79,7 +91,11 @@ impl Acevit {
         rng: &mut impl rand::Rng,
     ) -> Option<DVec3> {
         let pts = scene.store.sample_cut(scene.cut, self.settings.samples, rng);
-        let aspect = 16.0 / 9.0;
+        let aspect = if self.settings.aspect.is_finite() && self.settings.aspect > 0.0 {
+            self.settings.aspect
+        } else {
+            1.0
+        };
         let visible: Vec<(DVec3, f64, f64, f64)> = pts
             .into_iter()
             .filter_map(|p| {

@@ -6,10 +6,16 @@
 //!   the eye onto the isolevel by moving toward the fine target and recomputing it, until
 //!   |d − iso| ≤ `reproject_tolerance` × iso or `reproject_max_iterations`. Then the coarse target
 //!   gives the view direction, under a global up vector with a tilt limit.
-//! - Zoom: the distance to the coarse target changes along the line eye → coarse target (which is
-//!   not recomputed); the move is accepted only if the new distances to both the fine and the
-//!   coarse targets are ≥ `min_distance` (forward and backward collisions alike). A refused move
-//!   is shortened by bisection to the largest safe fraction.
+//! - The tilt limit bounds what the visitor's input does, never a view set from outside: a
+//!   go-to ends exactly at its node's view even when that view is steeper than the limit
+//!   ([`IsoCam::reset`] keeps it). The next hovers then relax the view toward the limit at the
+//!   pace of the smoothing (the limit in force is never stricter than the previous view), so
+//!   nothing snaps. [`exceeds_tilt_limit`] tells an author which views are steeper.
+//! - Zoom: the eye moves along the view direction (what the visitor sees stays centred), the
+//!   distance to the point looked at (at the coarse target's distance along the view) scaled
+//!   by the zoom; the move is accepted only if the new distances to the fine target, to the
+//!   coarse target and to the point looked at are all ≥ `min_distance` (forward and backward
+//!   collisions alike). A refused move is shortened by bisection to the largest safe fraction.
 //! - Twist: rotates the up vector about the view direction.
 //! - Temporal smoothing (9.3.3): the screen motion of the coarse target is limited to the user's
 //!   input motion by interpolating the orientation (recursively, `smoothing_rounds`), then the
@@ -124,11 +130,33 @@ impl IsoCam {
         // The point looked at, not yet the coarse target: the first hover then turns toward the
         // coarse target at the pace the smoothing allows instead of snapping to it.
         self.coarse = cam.target;
-        self.dir = self.tilt_limited(cam.forward(), cam.forward());
+        // Exactly the view given (a node's view is reached exactly), even beyond the tilt limit:
+        // the limit bounds the visitor's input, and relaxes from here as the visitor hovers.
+        self.dir = cam.forward();
         // Keep the camera's roll relative to the global up as the twist.
         let base = orthonormal_up(self.dir, self.settings.up, cam.up);
         let up = orthonormal_up(self.dir, cam.up, base);
         self.twist = base.cross(up).dot(self.dir).atan2(base.dot(up));
+    }
+
+    /// Changes the vertical field of view (the projection), keeping the eye and the view.
+    pub fn set_fov(&mut self, fov_y: f64) {
+        if fov_y.is_finite() && fov_y > 0.0 {
+            self.fov_y = fov_y;
+        }
+    }
+
+    /// Moves the eye to `eye`, keeping the view direction and the twist, and takes the
+    /// isolevel there (used to bring a far eye back toward the model; the caller keeps `eye`
+    /// out of the surface).
+    pub fn place_eye<B: AsRef<[u8]>>(&mut self, scene: SceneRef<'_, B>, eye: DVec3) {
+        if !eye.is_finite() {
+            return;
+        }
+        self.eye = eye;
+        if let Some(f) = self.fine(scene, eye) {
+            self.iso = (eye - f).length().max(self.settings.min_distance);
+        }
     }
 
     /// The current isolevel (distance to the fine target).
@@ -177,8 +205,16 @@ impl IsoCam {
         let world_per_height = 2.0 * (self.fov_y * 0.5).tan() * self.iso;
         let total = (delta.0.hypot(delta.1) * world_per_height).min(1e300);
         let step_len = (s.max_step * self.iso).max(f64::MIN_POSITIVE);
-        let steps = ((total / step_len).ceil() as u32).clamp(1, s.max_steps_per_frame);
-        let (sx, sy) = (delta.0 / f64::from(steps), delta.1 / f64::from(steps));
+        let max_steps = s.max_steps_per_frame.max(1);
+        let wanted_steps = (total / step_len).ceil();
+        // An input longer than `max_steps_per_frame` steps is clamped to that many steps of the
+        // largest size (the steps never grow beyond `max_step`).
+        let (steps, scale) = if wanted_steps > f64::from(max_steps) {
+            (max_steps, f64::from(max_steps) * step_len / total)
+        } else {
+            ((wanted_steps as u32).max(1), 1.0)
+        };
+        let (sx, sy) = (delta.0 * scale / f64::from(steps), delta.1 * scale / f64::from(steps));
         let prev = self.camera();
         let mut stats = StepStats { steps, ..StepStats::default() };
         for _ in 0..steps {
@@ -190,13 +226,15 @@ impl IsoCam {
             let right = toward.cross(cam_up).try_normalize().unwrap_or(prev.right());
             let w = 2.0 * (self.fov_y * 0.5).tan() * self.iso;
             let mut eye = self.eye + right * (sx * w) + cam_up * (sy * w);
-            // Re-project onto the isolevel.
-            let mut err = f64::INFINITY;
+            // Re-project onto the isolevel. `settled`: the error at `eye` when the loop stopped
+            // there (no move after it).
+            let mut settled = None;
             for _ in 0..s.reproject_max_iterations {
                 let Some(f) = self.fine(scene, eye) else { break };
                 let d = (eye - f).length();
-                err = (d - self.iso).abs() / self.iso;
+                let err = (d - self.iso).abs() / self.iso;
                 if err <= s.reproject_tolerance {
+                    settled = Some(err);
                     break;
                 }
                 stats.iterations += 1;
@@ -207,6 +245,14 @@ impl IsoCam {
                 return;
             }
             self.eye = self.keep_out(scene, eye);
+            // The error where the eye ended, after the last move (measured again only when the
+            // re-projection ran out of iterations or the eye was pushed out).
+            let err = match settled {
+                Some(err) if self.eye == eye => err,
+                _ => self
+                    .fine(scene, self.eye)
+                    .map_or(0.0, |f| ((self.eye - f).length() - self.iso).abs() / self.iso),
+            };
             stats.iso_error = stats.iso_error.max(if err.is_finite() { err } else { 0.0 });
         }
         self.last = stats;
@@ -216,8 +262,11 @@ impl IsoCam {
         let wanted = (coarse - self.eye).try_normalize().unwrap_or(self.dir);
         let wanted = self.tilt_limited(wanted, self.dir);
         let smoothed = self.smoothed(&prev, old_coarse, wanted, delta.0.hypot(delta.1));
-        // Interpolating between two directions can pass nearer the pole than either.
-        self.dir = self.tilt_limited(smoothed, wanted);
+        // Interpolating between two directions can pass nearer the pole than either. The limit
+        // in force is never stricter than the previous view (a node's view steeper than the
+        // limit relaxes toward it at the smoothing's pace instead of snapping).
+        let limit = self.settings.tilt_limit.min(tilt_from_up(prev.forward(), self.settings.up));
+        self.dir = tilt_limited_to(smoothed, wanted, self.settings.up, limit);
     }
 
     /// Pushes `eye` out to `min_distance` from the nearest sample of the cut, if closer.
@@ -244,17 +293,7 @@ impl IsoCam {
     /// Applies the tilt limit to a view direction (`fallback` gives the heading when looking
     /// straight along ±up).
     fn tilt_limited(&self, dir: DVec3, fallback: DVec3) -> DVec3 {
-        let up = self.settings.up.try_normalize().unwrap_or(DVec3::Y);
-        let c = dir.dot(up);
-        let limit = self.settings.tilt_limit.clamp(0.0, std::f64::consts::FRAC_PI_2);
-        if c.abs() <= limit.cos() {
-            return dir;
-        }
-        let horizontal = (dir - up * c)
-            .try_normalize()
-            .or_else(|| (fallback - up * fallback.dot(up)).try_normalize())
-            .unwrap_or_else(|| super::any_perpendicular(up));
-        (horizontal * limit.sin() + up * c.signum() * limit.cos()).try_normalize().unwrap_or(horizontal)
+        tilt_limited_to(dir, fallback, self.settings.up, self.settings.tilt_limit)
     }
 
     /// Temporal smoothing of the orientation (9.3.3). The screen motion of the previous coarse
@@ -294,18 +333,26 @@ impl IsoCam {
         slerp_dir(prev_dir, dir, s.smoothing_blend.clamp(0.0, 1.0))
     }
 
-    /// Zoom: positive `amount` brings the eye closer (log of the distance ratio).
+    /// Zoom: positive `amount` brings the eye closer (log of the distance ratio), along the view
+    /// direction: the point looked at stays at the centre of the screen.
     pub fn zoom<B: AsRef<[u8]>>(&mut self, scene: SceneRef<'_, B>, amount: f64) {
         let s = self.settings;
-        let to_coarse = self.coarse - self.eye;
-        let dc = to_coarse.length();
-        let Some(u) = to_coarse.try_normalize() else { return };
+        let u = self.dir;
+        let dc = (self.coarse - self.eye).length();
+        if !(dc > 0.0 && dc.is_finite() && u.is_finite()) {
+            return;
+        }
+        // The point looked at: on the view ray, at the coarse target's distance.
+        let pivot = self.eye + u * dc;
         let candidate = |frac: f64| -> Option<(DVec3, f64)> {
             let d = dc * (-amount * frac).exp();
             if d.is_nan() || d < s.min_distance || !d.is_finite() {
                 return None;
             }
-            let eye = self.coarse - u * d;
+            let eye = pivot - u * d;
+            if (eye - self.coarse).length() < s.min_distance {
+                return None;
+            }
             let f = scene.store.fine_target(scene.cut, eye, &s.query)?;
             let df = (eye - f.point).length().min(f.nearest_distance);
             (df >= s.min_distance).then_some((eye, (eye - f.point).length()))
@@ -329,5 +376,45 @@ impl IsoCam {
             self.eye = eye;
             self.iso = iso.max(s.min_distance);
         }
+    }
+}
+
+/// Angle between a view direction and the nearer of ±`up` (π/2 looking level).
+fn tilt_from_up(dir: DVec3, up: DVec3) -> f64 {
+    let up = up.try_normalize().unwrap_or(DVec3::Y);
+    match dir.try_normalize() {
+        Some(d) => d.dot(up).abs().clamp(0.0, 1.0).acos(),
+        None => std::f64::consts::FRAC_PI_2,
+    }
+}
+
+/// `dir` brought to at least `limit` from ±`up` (`fallback` gives the heading when looking
+/// straight along ±up).
+fn tilt_limited_to(dir: DVec3, fallback: DVec3, up: DVec3, limit: f64) -> DVec3 {
+    let up = up.try_normalize().unwrap_or(DVec3::Y);
+    let c = dir.dot(up);
+    let limit = limit.clamp(0.0, std::f64::consts::FRAC_PI_2);
+    if c.abs() <= limit.cos() {
+        return dir;
+    }
+    let horizontal = (dir - up * c)
+        .try_normalize()
+        .or_else(|| (fallback - up * fallback.dot(up)).try_normalize())
+        .unwrap_or_else(|| super::any_perpendicular(up));
+    (horizontal * limit.sin() + up * c.signum() * limit.cos()).try_normalize().unwrap_or(horizontal)
+}
+
+/// Whether a view looks nearer to ±`up` than `tilt_limit` (radians), i.e. steeper than the
+/// visitor's input can reach under IsoCam (see [`IsoCamSettings::tilt_limit`]). Authoring uses
+/// it to flag such views; the kiosk still reaches them exactly.
+pub fn exceeds_tilt_limit(view: &Camera, up: DVec3, tilt_limit: f64) -> bool {
+    let limit = tilt_limit.clamp(0.0, std::f64::consts::FRAC_PI_2);
+    tilt_from_up(view.forward(), up) < limit - 1e-12
+}
+
+impl IsoCamSettings {
+    /// Whether a view is steeper than these settings' tilt limit ([`exceeds_tilt_limit`]).
+    pub fn exceeds_tilt_limit(&self, view: &Camera) -> bool {
+        exceeds_tilt_limit(view, self.up, self.tilt_limit)
     }
 }

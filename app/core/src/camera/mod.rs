@@ -12,7 +12,7 @@ mod isocam;
 mod trackball;
 
 pub use acevit::{Acevit, AcevitSettings};
-pub use isocam::{IsoCam, IsoCamSettings, StepStats};
+pub use isocam::{IsoCam, IsoCamSettings, StepStats, exceeds_tilt_limit};
 pub use trackball::Trackball;
 
 use crate::scene::{Cut, Store, ViewParams};
@@ -262,6 +262,36 @@ impl Controller {
             Self::IsoCam(c) => c.apply(scene, intent),
             Self::Trackball(c) => c.apply(scene, intent),
             Self::Acevit(c) => c.apply(scene, intent, rng),
+        }
+    }
+
+    /// Changes the vertical field of view, keeping the view.
+    pub fn set_fov(&mut self, fov_y: f64) {
+        if !(fov_y.is_finite() && fov_y > 0.0) {
+            return;
+        }
+        match self {
+            Self::IsoCam(c) => c.set_fov(fov_y),
+            Self::Trackball(c) => c.set_camera(Camera { fov_y, ..c.camera() }),
+            Self::Acevit(c) => c.set_fov(fov_y),
+        }
+    }
+
+    /// Brings the eye to `distance` from `center` along the line from `center` to the eye,
+    /// keeping the view direction (the bound on zooming out). `distance` must keep the eye
+    /// outside the model's bounding sphere, so that no controller can enter the surface.
+    pub fn pull_toward<B: AsRef<[u8]>>(&mut self, scene: SceneRef<'_, B>, center: DVec3, distance: f64) {
+        let cam = self.camera();
+        let Some(dir) = (cam.eye - center).try_normalize() else { return };
+        if !(distance.is_finite() && distance > 0.0) {
+            return;
+        }
+        let eye = center + dir * distance;
+        let shift = eye - cam.eye;
+        match self {
+            Self::IsoCam(c) => c.place_eye(scene, eye),
+            Self::Trackball(c) => c.set_camera(Camera { eye, target: cam.target + shift, ..cam }),
+            Self::Acevit(c) => c.move_camera(Camera { eye, target: cam.target + shift, ..cam }),
         }
     }
 
