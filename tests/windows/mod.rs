@@ -3,6 +3,7 @@
 //! kiosk's trace telling what it was doing at those moments.
 
 mod audio;
+mod monitors;
 
 use image::RgbaImage;
 use kiosk_core::session::Script;
