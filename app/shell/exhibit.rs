@@ -1,5 +1,6 @@
 //! Exhibits on disk: a directory holding a model, as a store (`*.kstore`) or a scan
-//! (`*.ply`, `*.ply.gz`, `*.obj`) that is imported on first use into a cache.
+//! (`*.ply`, `*.ply.gz`, `*.obj`, `*.las`, `*.laz`, `*.e57`) that is imported on first use into a
+//! cache.
 
 use crate::MappedStore;
 use crate::import::{ImportOptions, OutputLock, import_locked};
@@ -21,9 +22,11 @@ pub fn model_file(dir: &Path) -> anyhow::Result<PathBuf> {
         .into_iter()
         .find(|p| {
             let n = name(p);
-            n.ends_with(".ply") || n.ends_with(".ply.gz") || n.ends_with(".obj") || n.ends_with(".obj.gz")
+            [".ply", ".ply.gz", ".obj", ".obj.gz", ".las", ".laz", ".e57"].iter().any(|e| n.ends_with(e))
         })
-        .with_context(|| format!("{}: no model (*.kstore, *.ply, *.ply.gz or *.obj)", dir.display()))
+        .with_context(|| {
+            format!("{}: no model (*.kstore, *.ply, *.ply.gz, *.obj, *.las, *.laz or *.e57)", dir.display())
+        })
 }
 
 /// Opens an exhibit's model, importing a scan into the cache when needed (see [`cache_name`]:

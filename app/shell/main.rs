@@ -124,7 +124,7 @@ fn run_kiosk(args: RunArgs) -> anyhow::Result<()> {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Import a scan (PLY in any encoding, .ply.gz, OBJ) into a multiresolution store.
+    /// Import a scan (PLY in any encoding, .ply.gz, OBJ, LAS/LAZ, E57) into a multiresolution store.
     Import {
         /// The scan file.
         scan: PathBuf,

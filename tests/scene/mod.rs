@@ -3,6 +3,7 @@
 mod ascii;
 mod corpus;
 mod extremes;
+mod formats;
 mod import_safety;
 mod mutations;
 mod oracles;

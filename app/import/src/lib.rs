@@ -1,10 +1,11 @@
-//! IsoKiosk import: the readers of real scans (PLY in every encoding, OBJ) and the out-of-core
+//! IsoKiosk import: the readers of real scans (PLY in every encoding, OBJ, LAS/LAZ, E57) and the out-of-core
 //! builder of the multiresolution point hierarchy. This is the file-heavy edge of the system;
 //! the store it writes is read by the pure core.
 
 pub mod build;
 pub mod direct;
 pub mod estimate;
+pub mod formats;
 mod lines;
 pub mod ply;
 pub mod source;
@@ -14,8 +15,9 @@ pub use build::{BuildError, BuildParams, BuildSummary, Builder, Stage};
 
 /// What the builder makes of a scan, as a number: bumped by every change that makes different
 /// stores from the same input with the same settings, so that stores cached from a scan (the
-/// kiosk's exhibits) are built again by the new code. 2: a mesh's spacings from its faces.
-pub const BUILDER_REVISION: u32 = 2;
+/// kiosk's exhibits) are built again by the new code. 2: a mesh's spacings from its faces; 3:
+/// normals of opposite orientation merge in simplification.
+pub const BUILDER_REVISION: u32 = 3;
 pub use source::{InputPoint, ReadError, ReadOptions, ReadReport};
 
 /// Reads into `buf` until it is full or the input ends; returns the bytes read.

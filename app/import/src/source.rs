@@ -84,6 +84,15 @@ pub enum ReadError {
     /// Rejected by the consumer of the points.
     #[error("{0}")]
     Sink(String),
+    /// Not a format the importer reads.
+    #[error(transparent)]
+    Format(#[from] crate::formats::DetectError),
+    /// The LAS/LAZ reader failed.
+    #[error("LAS: {0}")]
+    Las(#[from] crate::formats::las::LasError),
+    /// The E57 reader failed.
+    #[error("E57: {0}")]
+    E57(#[from] crate::formats::e57::E57Error),
 }
 
 /// What a read produced besides the points.
@@ -236,10 +245,16 @@ pub fn is_obj(path: &Path) -> bool {
     name.trim_end_matches(".gz").ends_with(".obj")
 }
 
-/// Reads a PLY or OBJ file (by extension; gzip detected by content).
+/// Reads a scan file in any format the importer knows ([`crate::formats::detect`]: by content,
+/// gzip'd PLY and OBJ by extension).
 pub fn read_file(path: &Path, opts: &ReadOptions, sink: &mut dyn Sink) -> Result<ReadReport, ReadError> {
-    let mut r = open(path)?;
-    if is_obj(path) { read_obj(&mut r, opts, sink) } else { read_ply(&mut r, opts, sink) }
+    use crate::formats::{Format, detect};
+    match detect(path)? {
+        Format::Las => Ok(crate::formats::las::read(path, sink)?),
+        Format::E57 => Ok(crate::formats::e57::read(path, sink)?),
+        Format::Obj => read_obj(&mut open(path)?, opts, sink),
+        Format::Ply => read_ply(&mut open(path)?, opts, sink),
+    }
 }
 
 /// Vertices buffered to apply face normals.

@@ -1,0 +1,105 @@
+//! ASTM E57 (with the `e57` crate): every scan of the file, each with its pose applied,
+//! Cartesian or spherical coordinates (converted), colour, or intensity as grey when a scan has
+//! no colour; points flagged invalid are skipped (counted in a warning). Several scans merge into
+//! one model. Normals and spacings are estimated by the builder.
+
+use crate::source::{InputPoint, ReadReport, Sink};
+use glam::{DVec3, Vec3};
+use std::path::Path;
+
+/// Why an E57 file cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum E57Error {
+    /// The file's structure (header, XML section, binary sections).
+    #[error("{0}")]
+    File(::e57::Error),
+    /// A scan's points cannot be decoded.
+    #[error("scan {scan} ({name}): {source}")]
+    Scan {
+        /// 1-based scan index.
+        scan: usize,
+        /// The scan's name, if any.
+        name: String,
+        /// The decoder's error.
+        source: ::e57::Error,
+    },
+    /// No scan holds a valid point.
+    #[error("no valid point in its {0} scan(s)")]
+    Empty(usize),
+    /// Rejected by the consumer of the points.
+    #[error("{0}")]
+    Sink(String),
+    /// The decoder gave up on corrupted data.
+    #[error("{0}")]
+    Corrupt(String),
+}
+
+/// Points handed on at a time.
+const CHUNK: usize = 1 << 16;
+
+/// Reads every scan of an E57 file into `sink`.
+pub fn read(path: &Path, sink: &mut dyn Sink) -> Result<ReadReport, E57Error> {
+    super::guarded(|| read_guarded(path, sink), E57Error::Corrupt)
+}
+
+fn read_guarded(path: &Path, sink: &mut dyn Sink) -> Result<ReadReport, E57Error> {
+    let mut reader = ::e57::E57Reader::from_file(path).map_err(E57Error::File)?;
+    let clouds = reader.pointclouds();
+    let mut report = ReadReport::default();
+    let mut invalid = 0u64;
+    for (i, pc) in clouds.iter().enumerate() {
+        let scan_err =
+            |source| E57Error::Scan { scan: i + 1, name: pc.name.clone().unwrap_or_default(), source };
+        let has_color = pc.has_color();
+        report.has_colors |= has_color || pc.has_intensity();
+        let mut points = reader.pointcloud_simple(pc).map_err(scan_err)?;
+        points.spherical_to_cartesian(true);
+        points.apply_pose(true);
+        points.intensity_to_color(true);
+        let mut out = Vec::with_capacity(CHUNK);
+        for p in points {
+            let p = p.map_err(scan_err)?;
+            report.rows += 1;
+            let ::e57::CartesianCoordinate::Valid { x, y, z } = p.cartesian else {
+                invalid += 1;
+                continue;
+            };
+            if !(x.is_finite() && y.is_finite() && z.is_finite()) {
+                invalid += 1;
+                continue;
+            }
+            let color = match (&p.color, p.intensity) {
+                (Some(c), _) => {
+                    let ch = |v: f32| super::to_u8(f64::from(v), 1.0);
+                    [ch(c.red), ch(c.green), ch(c.blue), 255]
+                }
+                (None, Some(g)) => {
+                    let g = super::to_u8(f64::from(g), 1.0);
+                    [g, g, g, 255]
+                }
+                (None, None) => [0; 4],
+            };
+            out.push(InputPoint {
+                pos: DVec3::new(x, y, z),
+                normal: Vec3::ZERO,
+                color,
+                radius: 0.0,
+                spacing: 0.0,
+            });
+            if out.len() == CHUNK {
+                report.points += out.len() as u64;
+                sink.points(std::mem::replace(&mut out, Vec::with_capacity(CHUNK)))
+                    .map_err(E57Error::Sink)?;
+            }
+        }
+        report.points += out.len() as u64;
+        sink.points(out).map_err(E57Error::Sink)?;
+    }
+    if report.points == 0 {
+        return Err(E57Error::Empty(clouds.len()));
+    }
+    if invalid > 0 {
+        report.warnings.push(format!("{invalid} points flagged invalid or without coordinates were skipped"));
+    }
+    Ok(report)
+}

@@ -1,0 +1,199 @@
+//! LAS 1.0–1.4 and LAZ (with the `las` crate and its LAZ decoder): coordinates are the file's
+//! integers times its scale plus its offset, in f64 (georeferenced coordinates go into the
+//! store's f64 origin, so millimetres survive offsets of 10⁶ m); colour is 16-bit per channel by
+//! the specification, but many writers store 8-bit values: the file is taken as 8-bit when no
+//! channel of its first points exceeds 255. Without colour, intensity becomes grey, scaled the
+//! same way (a file whose first points have neither is left without colour). Normals and spacings are estimated by the builder.
+
+use crate::source::{InputPoint, ReadReport, Sink};
+use glam::{DVec3, Vec3};
+use std::path::Path;
+
+/// Why a LAS or LAZ file cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum LasError {
+    /// The `las` crate's error (header, VLRs, point records, LAZ chunks).
+    #[error("{0}")]
+    Las(#[from] ::las::Error),
+    /// A point record that cannot be decoded.
+    #[error("point {index}: {source}")]
+    Point {
+        /// 1-based index of the point.
+        index: u64,
+        /// The decoder's error.
+        source: ::las::Error,
+    },
+    /// A point with a non-finite coordinate.
+    #[error("point {index}: non-finite coordinate ({x}, {y}, {z})")]
+    NonFinite {
+        /// 1-based index.
+        index: u64,
+        /// Coordinates.
+        x: f64,
+        /// Coordinates.
+        y: f64,
+        /// Coordinates.
+        z: f64,
+    },
+    /// Rejected by the consumer of the points.
+    #[error("{0}")]
+    Sink(String),
+    /// The decoder gave up on corrupted data.
+    #[error("{0}")]
+    Corrupt(String),
+}
+
+/// Points decoded at a time.
+const CHUNK: u64 = 1 << 16;
+
+/// Reads a LAS or LAZ file into `sink`.
+pub fn read(path: &Path, sink: &mut dyn Sink) -> Result<ReadReport, LasError> {
+    super::guarded(|| read_guarded(path, sink), LasError::Corrupt)
+}
+
+/// Checks the lengths in a LAS header against the file's size before the `las` crate allocates
+/// by them (a corrupted length would ask for gigabytes and abort the process): the header,
+/// the variable-length records, the point data of an uncompressed file, and the extended
+/// records of LAS 1.4.
+fn check_lengths(path: &Path) -> Result<(), LasError> {
+    use std::io::{Read, Seek, SeekFrom};
+    let bad = |why: String| LasError::Corrupt(format!("the header is inconsistent with the file: {why}"));
+    let mut f = std::fs::File::open(path).map_err(|e| LasError::Las(e.into()))?;
+    let size = f.metadata().map_err(|e| LasError::Las(e.into()))?.len();
+    let mut h = [0u8; 375];
+    let n = f.read(&mut h).map_err(|e| LasError::Las(e.into()))?;
+    if n < 227 {
+        return Err(bad(format!("{size} bytes, shorter than a header")));
+    }
+    let u16_at = |o: usize| u16::from_le_bytes([h[o], h[o + 1]]);
+    let u32_at = |o: usize| u32::from_le_bytes([h[o], h[o + 1], h[o + 2], h[o + 3]]);
+    let u64_at = |o: usize| u64::from_le_bytes(h[o..o + 8].try_into().unwrap_or([0; 8]));
+    let (minor, header_size) = (h[25], u64::from(u16_at(94)));
+    let (offset, vlrs) = (u64::from(u32_at(96)), u32_at(100));
+    let (format, record_len) = (h[104], u64::from(u16_at(105)));
+    if header_size > size || offset > size || header_size > offset {
+        return Err(bad(format!("header size {header_size}, point data at {offset}, file {size} bytes")));
+    }
+    // Variable-length records: 54-byte headers and their data, between the header and the points.
+    let mut at = header_size;
+    for i in 0..vlrs {
+        let mut vh = [0u8; 54];
+        f.seek(SeekFrom::Start(at))
+            .and_then(|_| f.read_exact(&mut vh))
+            .map_err(|_| bad(format!("record {} beyond the file", i + 1)))?;
+        // reserved (2), user id (16), record id (2), length after the header (2), description (32)
+        at += 54 + u64::from(u16::from_le_bytes([vh[20], vh[21]]));
+        if at > size {
+            return Err(bad(format!("variable-length record {} ends beyond the file", i + 1)));
+        }
+    }
+    let compressed = format & 0x80 != 0 || format & 0x40 != 0;
+    let points = if minor >= 4 && n >= 255 { u64_at(247) } else { u64::from(u32_at(107)) };
+    if !compressed
+        && points.checked_mul(record_len).and_then(|b| b.checked_add(offset)).is_none_or(|end| end > size)
+    {
+        return Err(bad(format!(
+            "{points} points of {record_len} bytes from byte {offset} do not fit in {size} bytes"
+        )));
+    }
+    if minor >= 4 && n >= 375 {
+        let (mut at, count) = (u64_at(235), u32_at(243));
+        for i in 0..count {
+            let mut eh = [0u8; 60];
+            if at == 0 || at > size {
+                return Err(bad(format!("extended record {} starts beyond the file", i + 1)));
+            }
+            f.seek(SeekFrom::Start(at))
+                .and_then(|_| f.read_exact(&mut eh))
+                .map_err(|_| bad(format!("extended record {} beyond the file", i + 1)))?;
+            let len = u64::from_le_bytes(eh[20..28].try_into().unwrap_or([0; 8]));
+            at = at.checked_add(60).and_then(|a| a.checked_add(len)).filter(|&e| e <= size).ok_or_else(
+                || bad(format!("extended record {} of {len} bytes ends beyond the file", i + 1)),
+            )?;
+        }
+    }
+    Ok(())
+}
+
+fn read_guarded(path: &Path, sink: &mut dyn Sink) -> Result<ReadReport, LasError> {
+    check_lengths(path)?;
+    let mut reader = ::las::Reader::from_path(path)?;
+    let header = reader.header().clone();
+    let has_colors = header.point_format().has_color;
+    let total = header.number_of_points();
+    let mut report = ReadReport::default();
+    // Where colour comes from and its range (8 or 16 bits), decided on the first chunk.
+    let mut mode: Option<Colour> = None;
+    let mut index = 0u64;
+    while index < total {
+        let data = reader.read_points(CHUNK.min(total - index))?;
+        if data.is_empty() {
+            report.warnings.push(format!("the header announces {total} points, the file holds {index}"));
+            break;
+        }
+        let points: Vec<::las::Point> = data
+            .points()
+            .enumerate()
+            .map(|(k, p)| p.map_err(|source| LasError::Point { index: index + k as u64 + 1, source }))
+            .collect::<Result<_, _>>()?;
+        let mode = *mode.get_or_insert_with(|| Colour::of(&points, has_colors));
+        let mut out = Vec::with_capacity(points.len());
+        for p in points {
+            index += 1;
+            if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
+                return Err(LasError::NonFinite { index, x: p.x, y: p.y, z: p.z });
+            }
+            out.push(InputPoint {
+                pos: DVec3::new(p.x, p.y, p.z),
+                normal: Vec3::ZERO,
+                color: mode.color(&p),
+                radius: 0.0,
+                spacing: 0.0,
+            });
+        }
+        report.rows += out.len() as u64;
+        report.points += out.len() as u64;
+        sink.points(out).map_err(LasError::Sink)?;
+    }
+    report.has_colors = !matches!(mode, None | Some(Colour::None));
+    Ok(report)
+}
+
+/// Where a file's colour comes from, with the largest value of its range.
+#[derive(Clone, Copy, Debug)]
+enum Colour {
+    Rgb(f64),
+    Intensity(f64),
+    None,
+}
+
+impl Colour {
+    /// Decided on the first points: RGB when the format has it and it is not all zero, else
+    /// intensity when it is not all zero; 8-bit when no value exceeds 255.
+    fn of(points: &[::las::Point], has_rgb: bool) -> Self {
+        let range = |largest: u16| if largest > 255 { 65535.0 } else { 255.0 };
+        let rgb = points.iter().filter_map(|p| p.color).map(|c| c.red.max(c.green).max(c.blue)).max();
+        match rgb {
+            Some(m) if has_rgb && m > 0 => return Self::Rgb(range(m)),
+            _ => {}
+        }
+        match points.iter().map(|p| p.intensity).max() {
+            Some(m) if m > 0 => Self::Intensity(range(m)),
+            _ => Self::None,
+        }
+    }
+
+    fn color(self, p: &::las::Point) -> [u8; 4] {
+        match (self, p.color) {
+            (Self::Rgb(max), Some(c)) => {
+                let ch = |v: u16| super::to_u8(f64::from(v), max);
+                [ch(c.red), ch(c.green), ch(c.blue), 255]
+            }
+            (Self::Intensity(max), _) => {
+                let g = super::to_u8(f64::from(p.intensity), max);
+                [g, g, g, 255]
+            }
+            _ => [0; 4],
+        }
+    }
+}

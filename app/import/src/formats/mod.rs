@@ -1,0 +1,118 @@
+//! The reader layer: which format a scan file is in, decided from its content (the extension
+//! only tells PLY from OBJ inside gzip, and `.gltf` JSON), and one module per survey format with
+//! its own typed error. PLY and OBJ are read by [`crate::source`] (and [`crate::ply`]).
+
+pub mod e57;
+pub mod las;
+
+use std::io::Read;
+use std::path::Path;
+
+/// A scan file's format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// Stanford PLY (any encoding, possibly gzip'd).
+    Ply,
+    /// Wavefront OBJ (possibly gzip'd).
+    Obj,
+    /// ASPRS LAS or LAZ (1.0–1.4; COPC is LAZ).
+    Las,
+    /// ASTM E57.
+    E57,
+}
+
+/// What a file that is not a readable scan turned out to be.
+#[derive(Debug, thiserror::Error)]
+pub enum DetectError {
+    /// The file cannot be read.
+    #[error("read error: {0}")]
+    Io(#[from] std::io::Error),
+    /// A format this build does not read.
+    #[error("{what}: not a format the importer reads; it reads {SUPPORTED}")]
+    Unsupported {
+        /// What the file looks like.
+        what: &'static str,
+    },
+}
+
+/// The formats the importer reads, for error messages.
+pub const SUPPORTED: &str =
+    "PLY (.ply, .ply.gz), OBJ (.obj, .obj.gz), LAS and LAZ (.las, .laz) and E57 (.e57)";
+
+/// Decides a file's format from its first bytes (and, for text, its extension).
+pub fn detect(path: &Path) -> Result<Format, DetectError> {
+    let mut head = [0u8; 16];
+    let n = read_head(path, &mut head)?;
+    let head = &head[..n];
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("").to_ascii_lowercase();
+    let unsupported = |what| Err(DetectError::Unsupported { what });
+    if head.starts_with(b"LASF") {
+        return Ok(Format::Las);
+    }
+    if head.starts_with(b"ASTM-E57") {
+        return Ok(Format::E57);
+    }
+    if head.starts_with(b"ply") {
+        return Ok(Format::Ply);
+    }
+    if head.starts_with(b"ISOKSTOR") {
+        return unsupported("an IsoKiosk store (open it directly; `kiosk verify` checks it)");
+    }
+    if head.starts_with(b"glTF") || name.ends_with(".gltf") || name.ends_with(".glb") {
+        return unsupported("a glTF model");
+    }
+    if head.starts_with(&[0x89, b'P', b'N', b'G']) || head.starts_with(&[0xff, 0xd8, 0xff]) {
+        return unsupported("an image");
+    }
+    if head.starts_with(b"PK\x03\x04") {
+        return unsupported("a ZIP archive (unpack it first)");
+    }
+    // Text or gzip: by the name, `.gz` aside (the reader inflates by content).
+    let base = name.trim_end_matches(".gz");
+    if base.ends_with(".obj") {
+        return Ok(Format::Obj);
+    }
+    if base.ends_with(".ply") || head.starts_with(&[0x1f, 0x8b]) || head.is_empty() {
+        // An empty or gzip'd file without a telling name: the PLY reader says what is wrong.
+        return Ok(Format::Ply);
+    }
+    unsupported("an unknown file")
+}
+
+fn read_head(path: &Path, head: &mut [u8]) -> std::io::Result<usize> {
+    // Only a regular file is peeked at: reading a pipe would take its bytes from the reader.
+    if !std::fs::metadata(path)?.is_file() {
+        return Ok(0);
+    }
+    let mut f = std::fs::File::open(path)?;
+    let mut n = 0;
+    while n < head.len() {
+        match f.read(&mut head[n..])? {
+            0 => break,
+            k => n += k,
+        }
+    }
+    Ok(n)
+}
+
+/// Runs a decoder of another crate that may panic on a corrupted file (the LAZ decoder asserts
+/// on its arithmetic coder's state), turning a panic into `err` with the panic's message: a
+/// broken file is an error, never a crash of the kiosk.
+pub(crate) fn guarded<T, E>(
+    decode: impl FnOnce() -> Result<T, E>,
+    err: impl FnOnce(String) -> E,
+) -> Result<T, E> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(decode)).unwrap_or_else(|panic| {
+        let msg = panic
+            .downcast_ref::<&str>()
+            .map(|s| (*s).to_string())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown failure".into());
+        Err(err(format!("the decoder failed on corrupted data ({msg})")))
+    })
+}
+
+/// Converts a colour channel of `bits` bits to 8 bits.
+pub(crate) fn to_u8(v: f64, max: f64) -> u8 {
+    (v / max * 255.0).round().clamp(0.0, 255.0) as u8
+}
