@@ -69,6 +69,34 @@ fn mutate(b: &mut Vec<u8>, rng: &mut Rng64) {
     }
 }
 
+/// What one read of a mutated file did: loaded (its report counts what it passed on), failed
+/// with an error that says something, or panicked (the file is kept for the failure message).
+fn judge(
+    read: std::thread::Result<Result<(u64, u64), String>>,
+    seed: &str,
+    round: usize,
+    bytes: &[u8],
+    loaded: &mut usize,
+    failed: &mut usize,
+) {
+    match read {
+        Ok(Ok((reported, sunk))) => {
+            assert_eq!(reported, sunk, "{seed} round {round}: the report counts what was passed on");
+            *loaded += 1;
+        }
+        Ok(Err(msg)) => {
+            assert!(msg.len() > 10, "{seed} round {round}: an error that says little: {msg:?}");
+            *failed += 1;
+        }
+        Err(_) => {
+            let name = seed.rsplit('/').next().unwrap_or("file");
+            let path = std::env::temp_dir().join(format!("kiosk-mutation-{round}-{name}"));
+            let _ = std::fs::write(&path, bytes);
+            panic!("{seed} round {round}: the reader panicked (the file: {})", path.display())
+        }
+    }
+}
+
 #[test]
 fn broken_files_never_panic_and_errors_say_something() {
     let opts = ReadOptions::default();
@@ -96,21 +124,7 @@ fn broken_files_never_panic_and_errors_say_something() {
                 };
                 got.map(|rep| (rep.points, pts)).map_err(|e| e.to_string())
             });
-            match read {
-                Ok(Ok((reported, sunk))) => {
-                    assert_eq!(reported, sunk, "{seed} round {round}: the report counts what was passed on");
-                    loaded += 1;
-                }
-                Ok(Err(msg)) => {
-                    assert!(msg.len() > 10, "{seed} round {round}: an error that says little: {msg:?}");
-                    failed += 1;
-                }
-                Err(_) => {
-                    let path = std::env::temp_dir().join(format!("kiosk-mutation-{round}.bin"));
-                    let _ = std::fs::write(&path, &b);
-                    panic!("{seed} round {round}: the reader panicked (the file: {})", path.display())
-                }
-            }
+            judge(read, seed, round, &b, &mut loaded, &mut failed);
         }
     }
     // Both outcomes happen: the mutations reach the parsers, not only the header checks.
@@ -128,7 +142,6 @@ fn broken_survey_files_never_panic_and_errors_say_something() {
     // turned into errors (formats::guarded), the allocation is not bounded yet.
     for seed in ["formats/autzen.las", "formats/1_4_w_evlr.las", "formats/ColouredCubeDouble.e57"] {
         let good = std::fs::read(data(seed)).expect("seed file");
-
         let path = dir.path().join(seed.rsplit('/').next().expect("name"));
         for round in 0..150 {
             let mut b = good.clone();
@@ -144,24 +157,7 @@ fn broken_survey_files_never_panic_and_errors_say_something() {
                 });
                 got.map(|rep| (rep.points, pts)).map_err(|e| e.to_string())
             });
-            match read {
-                Ok(Ok((reported, sunk))) => {
-                    assert_eq!(reported, sunk, "{seed} round {round}");
-                    loaded += 1;
-                }
-                Ok(Err(msg)) => {
-                    assert!(msg.len() > 10, "{seed} round {round}: an error that says little: {msg:?}");
-                    failed += 1;
-                }
-                Err(_) => {
-                    let keep = std::env::temp_dir().join(format!(
-                        "kiosk-mutation-{round}-{}",
-                        path.display().to_string().rsplit('/').next().unwrap_or("x")
-                    ));
-                    let _ = std::fs::write(&keep, &b);
-                    panic!("{seed} round {round}: the reader panicked (the file: {})", keep.display())
-                }
-            }
+            judge(read, seed, round, &b, &mut loaded, &mut failed);
         }
     }
     assert!(loaded > 50 && failed > 50, "loaded {loaded}, failed {failed}");

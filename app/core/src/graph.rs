@@ -931,7 +931,8 @@ mod tests {
     /// Inputs the fuzzer found (fuzz/run graph_xml): a file that loads can be saved over.
     #[test]
     fn fuzzed_files_that_load_can_be_saved_over() {
-        for text in [include_str!("../../../tests/data/fuzz/graph-save-over-1.xml")] {
+        const FUZZED: &[&str] = &[include_str!("../../../tests/data/fuzz/graph-save-over-1.xml")];
+        for text in FUZZED {
             let (g, _) = InfoGraph::from_xml(text).expect("loads");
             let over = g.to_xml_over(text).unwrap_or_else(|e| panic!("{e}"));
             let (again, _) = InfoGraph::from_xml(&over).expect("reads back");
