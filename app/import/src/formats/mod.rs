@@ -3,7 +3,11 @@
 //! its own typed error. PLY and OBJ are read by [`crate::source`] (and [`crate::ply`]).
 
 pub mod e57;
+pub mod gzip;
 pub mod las;
+pub(crate) mod mesh;
+pub mod obj;
+pub mod ply;
 
 use std::io::Read;
 use std::path::Path;

@@ -1,0 +1,251 @@
+//! PLY files as points: the `vertex` element's positions, normals and colours (any scalar type,
+//! colours scaled to 8 bits), and the `face` element's polygons for the mesh terms of
+//! [`crate::formats::mesh`]. The low-level parser is [`crate::ply`].
+
+use super::mesh::{Buffered, dropped_vertex, polygon_triangles};
+use crate::ply::{self, PlyError, PropKind};
+use crate::source::{InputPoint, ReadError, ReadOptions, ReadReport, Sink};
+use glam::{DVec3, Vec3};
+use std::io::BufRead;
+
+pub(crate) fn color_channel(v: f64, ty: ply::Scalar) -> u8 {
+    use ply::Scalar::*;
+    let x = match ty {
+        F32 | F64 => v * 255.0,
+        U16 | I16 => v / 257.0,
+        U32 | I32 => v / 16_843_009.0,
+        U8 | I8 => v,
+    };
+    if x.is_finite() { x.round().clamp(0.0, 255.0) as u8 } else { 0 }
+}
+
+/// Reads a PLY stream.
+pub fn read_ply(
+    r: &mut (dyn BufRead + Send),
+    opts: &ReadOptions,
+    sink: &mut dyn Sink,
+) -> Result<ReadReport, ReadError> {
+    let header = ply::read_header(r)?;
+    let mut report = ReadReport { warnings: header.warnings.clone(), ..Default::default() };
+    let names: Vec<&str> = header.elements.iter().map(|e| e.name.as_str()).collect();
+    let vi = header.elements.iter().position(|e| e.name == "vertex").ok_or_else(|| {
+        ReadError::Unusable(if names.is_empty() {
+            "no 'vertex' element: the file declares no elements".into()
+        } else {
+            format!("no 'vertex' element (elements: {})", names.join(", "))
+        })
+    })?;
+    let v = &header.elements[vi];
+    let scalar = |name: &str| {
+        v.prop(name).and_then(|i| match v.props[i].kind {
+            PropKind::Scalar(t) => Some((i, t)),
+            PropKind::List { .. } => None,
+        })
+    };
+    let missing: Vec<&str> = ["x", "y", "z"].into_iter().filter(|n| scalar(n).is_none()).collect();
+    if !missing.is_empty() {
+        return Err(ReadError::Unusable(format!(
+            "element 'vertex' has no scalar propert{} {}: it holds no 3D positions",
+            if missing.len() == 1 { "y" } else { "ies" },
+            missing.join(", ")
+        )));
+    }
+    if v.count == 0 {
+        return Err(ReadError::Unusable("the file has 0 vertices".into()));
+    }
+    let pos_idx = ["x", "y", "z"].map(|n| scalar(n).map_or(0, |s| s.0));
+    let normal_idx = match ["nx", "ny", "nz"].map(scalar) {
+        [Some(a), Some(b), Some(c)] => Some([a.0, b.0, c.0]),
+        _ => None,
+    };
+    let color_idx = ["red", "green", "blue"]
+        .map(scalar)
+        .into_iter()
+        .collect::<Option<Vec<_>>>()
+        .or_else(|| ["diffuse_red", "diffuse_green", "diffuse_blue"].map(scalar).into_iter().collect());
+    let alpha_idx = scalar("alpha").or_else(|| scalar("diffuse_alpha"));
+    report.has_normals = normal_idx.is_some();
+    report.has_colors = color_idx.is_some();
+
+    let face = header.elements.iter().position(|e| e.name == "face").and_then(|fi| {
+        let f = &header.elements[fi];
+        let li = f.prop("vertex_indices").or_else(|| f.prop("vertex_index"))?;
+        matches!(f.props[li].kind, PropKind::List { .. }).then_some((fi, li))
+    });
+    let use_faces = face.is_some() && v.count <= opts.face_vertex_limit;
+    if face.is_some() && !use_faces {
+        report.warnings.push(format!(
+            "{} vertices exceed the face-normal limit ({}): faces ignored, normals estimated",
+            v.count, opts.face_vertex_limit
+        ));
+    }
+    let mut buffered = Buffered::default();
+    // The vertices a face may refer to, when every vertex comes before the faces.
+    let vertices = face.filter(|&(fi, _)| vi < fi).and_then(|_| usize::try_from(v.count).ok());
+    buffered.streamed = use_faces && vertices.is_some() && normal_idx.is_none();
+    if use_faces {
+        // Every vertex is kept until the faces are applied: room for them at once, up to 4 Mi
+        // (a broken header's count takes no more; the buffer grows past that as rows come).
+        let _ = buffered.points.try_reserve_exact(usize::try_from(v.count.min(1 << 22)).unwrap_or(0));
+        // And for a triangle per face (12 bytes each, kept until every vertex is read), up to 8 Mi.
+        if let Some((fi, _)) = face.filter(|_| !buffered.streamed) {
+            let faces = header.elements[fi].count.min(1 << 23);
+            let _ = buffered.tris.try_reserve_exact(usize::try_from(faces).unwrap_or(0));
+        }
+    }
+    let conv = PlyRows {
+        vi,
+        face,
+        pos_idx,
+        normal_idx,
+        color_idx,
+        alpha_idx,
+        use_faces,
+        drop_invalid: opts.drop_invalid,
+        vertices,
+    };
+    let mut dropped = 0u64;
+    let mut sink_err = None;
+    let body_warnings = ply::read_body_converted(r, &header, &conv, |out: &mut PlyOut| {
+        report.rows += out.rows;
+        report.faces_used += out.faces;
+        dropped += out.dropped;
+        if use_faces {
+            buffered.points.append(&mut out.points);
+            if buffered.streamed {
+                buffered.accumulate(&out.tris);
+            } else {
+                buffered.tris.append(&mut out.tris);
+            }
+            buffered.dropped += out.dropped as usize;
+            buffered.unchecked |= out.unchecked;
+        } else if sink_err.is_none() {
+            for p in out.points.drain(..) {
+                if let Err(e) = sink.point(p) {
+                    sink_err = Some(e);
+                    break;
+                }
+                report.points += 1;
+            }
+        }
+        Ok(())
+    });
+    let body_warnings = body_warnings?;
+    if let Some(e) = sink_err {
+        return Err(ReadError::Sink(e));
+    }
+    report.warnings.extend(body_warnings);
+    if dropped > 0 {
+        report.warnings.push(format!("{dropped} vertex row(s) with non-finite coordinates dropped"));
+    }
+    if use_faces {
+        buffered.finish(&mut report, sink)?;
+    }
+    Ok(report)
+}
+
+/// How [`read_ply`] converts the rows of a PLY body (on the pool, [`ply::Convert`]): vertices
+/// into samples, faces into triangles (where they are used).
+pub(crate) struct PlyRows {
+    /// The vertex element, and the face element and its index list.
+    vi: usize,
+    face: Option<(usize, usize)>,
+    /// Where a vertex row holds its position, normal, colour and alpha (with their types).
+    pos_idx: [usize; 3],
+    normal_idx: Option<[usize; 3]>,
+    color_idx: Option<Vec<(usize, ply::Scalar)>>,
+    alpha_idx: Option<(usize, ply::Scalar)>,
+    /// Whether the faces give the vertices normals and radii (else only broken polygons are
+    /// looked at: an error either way).
+    use_faces: bool,
+    drop_invalid: bool,
+    /// The vertices a face may refer to, when every vertex comes before the faces (else the
+    /// indices are checked once every vertex is read).
+    vertices: Option<usize>,
+}
+
+/// The rows of a run converted: its vertices (a dropped one as a placeholder where the faces
+/// are used, to keep the faces' indices right), its faces' triangles, and counts.
+#[derive(Default)]
+pub(crate) struct PlyOut {
+    points: Vec<InputPoint>,
+    tris: Vec<[u32; 3]>,
+    /// Vertex rows, of which dropped for a non-finite position, and faces used.
+    rows: u64,
+    dropped: u64,
+    faces: u64,
+    /// Whether a triangle's indices are still to be checked against the vertices.
+    unchecked: bool,
+}
+
+impl ply::Convert for PlyRows {
+    type Out = PlyOut;
+
+    fn clear(&self, out: &mut PlyOut) {
+        out.points.clear();
+        out.tris.clear();
+        (out.rows, out.dropped, out.faces, out.unchecked) = (0, 0, 0, false);
+    }
+
+    fn convert(&self, ei: usize, ri: u64, row: &ply::Row, out: &mut PlyOut) -> Result<(), PlyError> {
+        if ei == self.vi {
+            out.rows += 1;
+            let [x, y, z] = self.pos_idx.map(|i| row.values[i]);
+            if !(x.is_finite() && y.is_finite() && z.is_finite()) {
+                if self.drop_invalid {
+                    out.dropped += 1;
+                    if self.use_faces {
+                        out.points.push(dropped_vertex(DVec3::new(x, y, z)));
+                    }
+                    return Ok(());
+                }
+                return Err(PlyError::Row {
+                    element: "vertex".into(),
+                    row: ri + 1,
+                    line: None,
+                    msg: format!("non-finite coordinate ({x}, {y}, {z})"),
+                });
+            }
+            let normal = self
+                .normal_idx
+                .map(|n| Vec3::new(row.values[n[0]] as f32, row.values[n[1]] as f32, row.values[n[2]] as f32))
+                .and_then(|n| n.is_finite().then_some(n))
+                .and_then(Vec3::try_normalize)
+                .unwrap_or(Vec3::ZERO);
+            let color = match &self.color_idx {
+                Some(c) => {
+                    let a = self.alpha_idx.map_or(255, |(i, t)| color_channel(row.values[i], t));
+                    [
+                        color_channel(row.values[c[0].0], c[0].1),
+                        color_channel(row.values[c[1].0], c[1].1),
+                        color_channel(row.values[c[2].0], c[2].1),
+                        a.max(1),
+                    ]
+                }
+                None => [0; 4],
+            };
+            out.points.push(InputPoint {
+                pos: DVec3::new(x, y, z),
+                normal,
+                color,
+                radius: 0.0,
+                spacing: 0.0,
+            });
+        } else if let Some((fi, li)) = self.face
+            && ei == fi
+            && (self.use_faces || row.lists[li].len() < 3)
+        {
+            // Triangles are kept as read (indices checked here when the vertices came first) and
+            // applied once every vertex is read.
+            polygon_triangles(&row.lists[li], self.vertices, &mut out.tris).map_err(|msg| PlyError::Row {
+                element: "face".into(),
+                row: ri + 1,
+                line: None,
+                msg,
+            })?;
+            out.unchecked |= self.vertices.is_none();
+            out.faces += 1;
+        }
+        Ok(())
+    }
+}
