@@ -73,6 +73,8 @@ fn run_in(content: &Path, script: &Script, shots: &[f64], config: &str, speed: f
         .arg("--screenshot-dir")
         .arg(dir.path())
         .env("XDG_RUNTIME_DIR", &runtime)
+        // Statistics and the visit log go to a temporary directory, never the user's state.
+        .env("ISOKIOSK_STATE", dir.path().join("state"))
         .env("RUST_LOG", "info,wgpu_core=warn,wgpu_hal=warn,naga=warn")
         .output()
         .expect("xvfb-run must be installed (.ci/setup installs xvfb and xauth)");
