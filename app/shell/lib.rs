@@ -4,7 +4,9 @@
 pub mod exhibit;
 pub mod import;
 pub mod media;
+pub mod report;
 pub mod snapshot;
+pub mod stats;
 pub mod windows;
 
 use anyhow::Context;

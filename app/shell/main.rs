@@ -180,6 +180,24 @@ enum Command {
         #[arg(long, default_value_t = 1.0)]
         tolerance: f32,
     },
+    /// Visit statistics of an exhibit: a table per node and SVG plots.
+    Stats {
+        /// The exhibit's name (its directory's name).
+        exhibit: String,
+        /// Only visits since this day (YYYY-MM-DD, UTC), from the visit log.
+        #[arg(long, value_name = "DATE")]
+        since: Option<String>,
+        /// Where the plots go (default: ./stats-EXHIBIT/).
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+        /// The state directory (default: the configuration's, else $ISOKIOSK_STATE, else
+        /// ~/.local/state/isokiosk).
+        #[arg(long, value_name = "DIR")]
+        state: Option<PathBuf>,
+        /// Configuration file whose state_dir to use.
+        #[arg(long)]
+        config: Option<PathBuf>,
+    },
     /// Replay a touch session without window or GPU and write its trace (JSON Lines).
     Replay {
         /// Exhibit directory (a store, or a scan imported on the fly).
@@ -267,6 +285,23 @@ fn main() -> anyhow::Result<()> {
                 gpu.adapter.name,
                 gpu.adapter.backend
             );
+        }
+        Command::Stats { exhibit, since, out, state, config } => {
+            let state = match (state, config) {
+                (Some(s), _) => s,
+                (None, Some(c)) => kiosk::windows::config::Config::load(&c)?.state_dir(),
+                (None, None) if std::path::Path::new("kiosk.toml").exists() => {
+                    kiosk::windows::config::Config::load(std::path::Path::new("kiosk.toml"))?.state_dir()
+                }
+                (None, None) => kiosk::stats::state_dir(),
+            };
+            let opts = kiosk::report::StatsOptions {
+                since: since.as_deref().map(kiosk::report::parse_date).transpose()?,
+                out: out.unwrap_or_else(|| PathBuf::from(format!("stats-{exhibit}"))),
+                exhibit,
+                state,
+            };
+            print!("{}", kiosk::report::run(&opts)?);
         }
         Command::Replay { exhibit, session, trace, controller, seed } => {
             let store = kiosk::exhibit::open_model(&exhibit)?;

@@ -43,6 +43,8 @@ fn main() {
         .arg("--session")
         .arg(root.join("tests/sessions/kiosk-visit.jsonl"))
         .env("XDG_RUNTIME_DIR", &runtime)
+        // Statistics and the visit log go to a temporary directory, never the user's state.
+        .env("ISOKIOSK_STATE", dir.path().join("state"))
         .env("RUST_LOG", "warn")
         .output()
         .expect("xvfb-run (installed by .ci/setup)");

@@ -225,3 +225,86 @@ fn a_view_chosen_in_the_radial_menu_does_not_stop_the_attract_tour() {
     assert!(frames.iter().any(|f| f.mode == Mode::Attract), "the attract loop started");
     assert!(shown.len() >= 3, "the tour went on after the menu's choice: {shown:?}");
 }
+
+/// Drives a kiosk through a script like `run_session`, and hands the kiosk back.
+fn drive(
+    d: &Demo,
+    script: &Script,
+    settings: &KioskSettings,
+    extra: f64,
+) -> (Vec<KioskFrame>, kiosk_core::kiosk::Kiosk) {
+    let refs: Vec<ModelRef<'_, memmap2::Mmap>> =
+        d.models.iter().map(|(s, g)| ModelRef { store: s, graph: Some(g) }).collect();
+    let session = script.session();
+    let mut kiosk = kiosk_core::kiosk::Kiosk::new(settings.clone(), refs.len(), 0.0);
+    let dt = 1.0 / settings.explore.fps;
+    let (mut next, mut frames) = (0, Vec::new());
+    for k in 0..=((session.duration() + extra) * settings.explore.fps).ceil() as u64 {
+        let t = k as f64 * dt;
+        while next < session.events.len() && session.events[next].t <= t + 1e-9 {
+            kiosk.touch(&session.events[next]);
+            next += 1;
+        }
+        frames.push(kiosk.step(&refs, t));
+    }
+    (frames, kiosk)
+}
+
+#[test]
+fn visits_are_recorded_and_the_statistics_outlive_the_reset() {
+    use kiosk_core::stats::VisitEnd;
+    let d = demo();
+    let settings =
+        KioskSettings { attract_after_secs: 20.0, reset_after_secs: 60.0, ..KioskSettings::default() };
+    // A visitor explores, picks the menu's top candidate, switches language, leaves; the attract
+    // loop starts; a second visitor takes over and leaves; the reset.
+    let s = Script::new()
+        .wait(0.2)
+        .tap(1, 0.5, 0.86)
+        .wait(0.5)
+        .radial_pick(2, (0.5, 0.5), 1.0, (0.5, 0.3))
+        .wait(1.0)
+        .tap(1, 0.74, 0.07)
+        .wait(40.0)
+        .tap(3, 0.5, 0.5)
+        .wait(5.0)
+        .cancel(99);
+    let (frames, mut kiosk) = drive(&d, &s, &settings, 70.0);
+    let visits = kiosk.take_visits();
+    assert_eq!(visits.iter().map(|v| v.ended).collect::<Vec<_>>(), [VisitEnd::NewVisitor, VisitEnd::Reset]);
+    let first = &visits[0];
+    assert!((first.start - 0.2).abs() < 1e-9, "{}", first.start);
+    assert_eq!(first.languages, ["en", "it"]);
+    assert_eq!(first.models.len(), 1);
+    let m = &first.models[0];
+    assert_eq!((m.model, m.menu_opens, m.menu_picks.len()), (0, 1, 1));
+    // The pick was displayed (a menu display holds until the attract loop, 20 s after the last
+    // touch, so its dwell is about that long).
+    let picked = &m.displayed.first().expect("the pick was displayed").node;
+    let dwell = m.displayed[0].dwell_secs;
+    assert!(dwell > 15.0 && dwell < 25.0, "dwell {dwell}");
+    // The second visit starts at the takeover and ends at the reset, 60 s after its last touch.
+    assert!(
+        visits[1].start > first.start + 40.0 && (visits[1].end - (visits[1].last_touch + 60.0)).abs() < 0.05
+    );
+    assert_eq!(frames.last().map(|f| f.mode), Some(Mode::Gallery));
+    // The long-run counts survived the reset.
+    let stats = &kiosk.stats()[0];
+    assert_eq!(stats.visits, 2);
+    let n = stats.get(picked);
+    assert_eq!((n.menu_picks, n.displays), (1, 1));
+    assert!((n.dwell_secs - dwell).abs() < 1e-9);
+    assert_eq!(kiosk.stats()[1].visits, 0);
+    assert!(kiosk.visit().is_none());
+}
+
+#[test]
+fn popularity_without_data_changes_no_frame() {
+    let d = demo();
+    let s = Script::new().wait(0.2).tap(1, 0.5, 0.86).joystick(2, (0.1, 0.05), 2.0).wait(40.0).cancel(99);
+    let mut on = fast();
+    on.popularity.enabled = true;
+    let a = serde_json::to_string(&d.run(&s, &fast(), 1.0)).expect("json");
+    let b = serde_json::to_string(&d.run(&s, &on, 1.0)).expect("json");
+    assert_eq!(a, b);
+}

@@ -74,6 +74,8 @@ fn run_in(content: &Path, script: &Script, shots: &[f64], config: &str, speed: f
         .arg("--screenshot-dir")
         .arg(dir.path())
         .env("XDG_RUNTIME_DIR", &runtime)
+        // Statistics and the visit log go to a temporary directory, never the user's state.
+        .env("ISOKIOSK_STATE", dir.path().join("state"))
         .env("RUST_LOG", "info,wgpu_core=warn,wgpu_hal=warn,naga=warn")
         .output()
         .expect("xvfb-run must be installed (.ci/setup installs xvfb and xauth)");
@@ -229,6 +231,18 @@ fn attract_loop_and_reset_with_an_accelerated_clock() {
     );
     // Back in the gallery after the reset: the card with the first model's picture.
     assert!(bright(&run.shot("controller", 10.0), (160, 85, 640, 355), 150.0) > 0.1);
+    // The visit went to the log of the test's state directory, with its end; the statistics too.
+    let state = run.dir.path().join("state");
+    let log = std::fs::read_to_string(state.join("visits.jsonl")).expect("visit log");
+    let visits: Vec<Value> = log.lines().map(|l| serde_json::from_str(l).expect("JSON line")).collect();
+    assert_eq!(visits.len(), 1, "{log}");
+    assert_eq!(visits[0]["ended"], "reset");
+    assert_eq!(visits[0]["models"][0]["exhibit"], "demosthenes");
+    assert!(visits[0]["wall_start"].as_f64().is_some_and(|w| w > 1.6e9), "{log}");
+    let stats: Value =
+        serde_json::from_str(&std::fs::read_to_string(state.join("demosthenes/stats.json")).expect("stats"))
+            .expect("stats JSON");
+    assert_eq!(stats["visits"], 1);
 }
 
 fn copy_dir(from: &Path, to: &Path) {

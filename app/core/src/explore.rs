@@ -183,6 +183,13 @@ impl Explorer {
         self.rec.as_ref()
     }
 
+    /// The recommender's γ per node (popularity, [`crate::stats`]); see [`Recommender::set_gamma`].
+    pub fn set_gamma(&mut self, gamma: Vec<f64>) {
+        if let Some(r) = self.rec.as_mut() {
+            r.set_gamma(gamma);
+        }
+    }
+
     /// The radial menu, when open.
     pub fn menu(&self) -> Option<&RadialMenu> {
         self.menu.as_ref().filter(|_| self.gestures.menu_open())

@@ -6,6 +6,12 @@
 //! Pure like the rest of the core: the shell hands in touch events and times; the kiosk hands back
 //! what to draw and what to play. A recorded session replayed through [`run_session`] gives the
 //! same frames as the live kiosk did.
+//!
+//! Visits and statistics ([`crate::stats`]): a visit starts with a touch and ends at the reset
+//! (or the same timeout in the gallery), when a touch takes over the attract loop, or when the
+//! shell closes it ([`Kiosk::end_visit`]); the finished records wait in [`Kiosk::take_visits`].
+//! Each model's long-run statistics live in the kiosk across visits ([`Kiosk::stats`]); the
+//! shell loads and saves them. With `popularity` on, each new exploration's γ comes from them.
 
 use crate::explore::Explorer;
 use crate::gesture::{TouchEvent, TouchKind};
@@ -14,6 +20,7 @@ use crate::recommend::{Effect, RecState};
 use crate::replay::{Frame, ReplaySettings};
 use crate::scene::Store;
 use crate::session::Session;
+use crate::stats::{ExhibitStats, Observer, PopularitySettings, VisitEnd, VisitRecord, adjusted_importance};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -96,6 +103,8 @@ pub struct KioskSettings {
     pub tap_max_move: f64,
     /// Settings of each exploration (controller, gestures, recommender, radial menu, seed).
     pub explore: ReplaySettings,
+    /// Whether and how popularity adjusts γ ([`crate::stats`]).
+    pub popularity: PopularitySettings,
 }
 
 impl Default for KioskSettings {
@@ -108,6 +117,7 @@ impl Default for KioskSettings {
             tap_max_secs: 0.5,
             tap_max_move: 0.03,
             explore: ReplaySettings::default(),
+            popularity: PopularitySettings::default(),
         }
     }
 }
@@ -191,6 +201,10 @@ pub struct Kiosk {
     narrating: Option<(usize, usize)>,
     visits: u64,
     pending: Vec<KioskEffect>,
+    stats: Vec<ExhibitStats>,
+    observers: Vec<Observer>,
+    visit: Option<VisitRecord>,
+    finished: Vec<VisitRecord>,
 }
 
 impl Kiosk {
@@ -210,6 +224,65 @@ impl Kiosk {
             narrating: None,
             visits: 0,
             pending: Vec::new(),
+            stats: vec![ExhibitStats::default(); models],
+            observers: vec![Observer::default(); models],
+            visit: None,
+            finished: Vec::new(),
+        }
+    }
+
+    /// Each model's long-run statistics.
+    pub fn stats(&self) -> &[ExhibitStats] {
+        &self.stats
+    }
+
+    /// Sets a model's statistics (loaded by the shell at start).
+    pub fn set_stats(&mut self, model: usize, stats: ExhibitStats) {
+        if let Some(s) = self.stats.get_mut(model) {
+            *s = stats;
+        }
+    }
+
+    /// The visits finished since the last call.
+    pub fn take_visits(&mut self) -> Vec<VisitRecord> {
+        std::mem::take(&mut self.finished)
+    }
+
+    /// The visit in progress, if any.
+    pub fn visit(&self) -> Option<&VisitRecord> {
+        self.visit.as_ref()
+    }
+
+    /// Ends the visit in progress at `t` (the shell closes: [`VisitEnd::Exit`]), counting the
+    /// display shown until then.
+    pub fn end_visit<B: AsRef<[u8]>>(&mut self, models: &[ModelRef<'_, B>], t: f64, how: VisitEnd) {
+        self.close_displays(models, t, true);
+        self.finish_visit(t, how);
+    }
+
+    /// Ends the counting of displays of the models not being explored by a visitor (all: `all`).
+    fn close_displays<B: AsRef<[u8]>>(&mut self, models: &[ModelRef<'_, B>], t: f64, all: bool) {
+        for (m, o) in self.observers.iter_mut().enumerate() {
+            if o.counting()
+                && (all || m != self.model || self.mode != Mode::Explore)
+                && let Some(g) = models.get(m).and_then(|x| x.graph)
+            {
+                let visit = self.visit.as_mut().map(|v| v.model(m));
+                o.close(g, t, &mut self.stats[m], visit);
+            }
+        }
+    }
+
+    fn finish_visit(&mut self, t: f64, how: VisitEnd) {
+        if let Some(mut v) = self.visit.take() {
+            v.end = t;
+            v.ended = how;
+            for m in &v.models {
+                if let Some(s) = self.stats.get_mut(m.model) {
+                    s.visits += 1;
+                }
+            }
+            self.finished.push(v);
         }
     }
 
@@ -283,6 +356,10 @@ impl Kiosk {
                         lang: self.lang().to_string(),
                     });
                 }
+                let lang = self.lang().to_string();
+                if let Some(v) = self.visit.as_mut() {
+                    v.language(&lang);
+                }
             }
             ButtonKind::Previous => self.model = (self.model + self.models.max(1) - 1) % self.models.max(1),
             ButtonKind::Next => self.model = (self.model + 1) % self.models.max(1),
@@ -297,6 +374,11 @@ impl Kiosk {
         }
         self.last_input = self.last_input.max(e.t);
         if e.ev == TouchKind::Down {
+            if self.mode == Mode::Attract {
+                // Whoever explored before has gone: a new visitor.
+                self.finish_visit(e.t, VisitEnd::NewVisitor);
+            }
+            self.note_touch(e.t);
             let route = match self.mode {
                 Mode::Attract => {
                     // A touch takes over: the tour stops, this finger is spent.
@@ -317,6 +399,9 @@ impl Kiosk {
                 self.feed_explorer(e);
             }
             return;
+        }
+        if self.routes.contains_key(&e.id) {
+            self.note_touch(e.t);
         }
         let Some(route) = self.routes.get_mut(&e.id) else { return };
         let end = matches!(e.ev, TouchKind::Up | TouchKind::Cancel);
@@ -363,6 +448,12 @@ impl Kiosk {
         }
     }
 
+    /// A touch: the visit goes on, or a new one starts.
+    fn note_touch(&mut self, t: f64) {
+        let lang = self.lang().to_string();
+        self.visit.get_or_insert_with(|| VisitRecord::new(t, &lang)).last_touch = t;
+    }
+
     fn feed_explorer(&mut self, e: &TouchEvent) {
         if let Some(x) = self.explorers.get_mut(self.model).and_then(Option::as_mut) {
             x.touch(e);
@@ -372,6 +463,9 @@ impl Kiosk {
     /// The mouse's right button (thesis 9.5.2): the radial menu at once.
     pub fn menu_button(&mut self, t: f64, x: f64, y: f64) {
         self.last_input = self.last_input.max(t);
+        if t.is_finite() {
+            self.note_touch(t);
+        }
         if self.mode == Mode::Explore
             && let Some(e) = self.explorers.get_mut(self.model).and_then(Option::as_mut)
         {
@@ -396,6 +490,10 @@ impl Kiosk {
         self.now = t;
         let idle = t - self.last_input;
         let touched = !self.routes.is_empty();
+        let mut ended = None;
+        if !touched && idle >= self.settings.reset_after_secs && self.visit.is_some() {
+            ended = Some(if self.mode == Mode::Gallery { VisitEnd::Back } else { VisitEnd::Reset });
+        }
         if !touched
             && idle >= self.settings.reset_after_secs
             && (self.mode != Mode::Gallery || self.model != 0 || self.lang != 0)
@@ -416,11 +514,30 @@ impl Kiosk {
                 let mut s = self.settings.explore;
                 s.seed = s.seed.wrapping_add(self.visits);
                 self.visits += 1;
-                *slot = Some(Explorer::new(m.store, m.graph, &s, t));
+                let mut x = Explorer::new(m.store, m.graph, &s, t);
+                if let Some(gamma) = m
+                    .graph
+                    .and_then(|g| adjusted_importance(g, &self.stats[model], &self.settings.popularity))
+                {
+                    x.set_gamma(gamma);
+                }
+                *slot = Some(x);
             }
             if let Some(x) = slot.as_mut() {
                 x.autopilot = self.mode == Mode::Attract;
+                let before = x.recommender().map(|r| r.state);
+                let menus = x.summary.menu_requests;
                 let (f, effects) = x.step(m.store, m.graph, t);
+                if let (Some(g), Some(before), Some(after)) =
+                    (m.graph, before, x.recommender().map(|r| r.state))
+                {
+                    let active = self.mode == Mode::Explore;
+                    let mut visit = self.visit.as_mut().map(|v| v.model(model));
+                    if active && let Some(v) = visit.as_deref_mut() {
+                        v.menu_opens += (x.summary.menu_requests - menus) as u32;
+                    }
+                    self.observers[model].step(g, (before, after), t, active, &mut self.stats[model], visit);
+                }
                 for fx in effects {
                     match fx {
                         Effect::PlayNarration { node } => {
@@ -434,6 +551,10 @@ impl Kiosk {
                 }
                 frame = Some(f);
             }
+        }
+        self.close_displays(models, t, false);
+        if let Some(how) = ended {
+            self.finish_visit(t, how);
         }
         // A narration ends with its display, whatever ended it.
         if let Some((model, node)) = self.narrating {

@@ -15,6 +15,7 @@ pub mod recommend;
 pub mod replay;
 pub mod scene;
 pub mod session;
+pub mod stats;
 
 pub use geom::Aabb;
 pub use scene::{

@@ -399,6 +399,9 @@ pub struct Recommender {
     preds: Vec<Vec<(usize, f64)>>,
     /// Each node's view projection, precomputed.
     projectors: Vec<Projector>,
+    /// γ per node when it differs from the graph's importance (popularity, [`crate::stats`]);
+    /// empty: the graph's.
+    gamma: Vec<f64>,
 }
 
 impl Recommender {
@@ -421,7 +424,14 @@ impl Recommender {
             mandatory,
             preds,
             projectors,
+            gamma: Vec::new(),
         }
+    }
+
+    /// Uses these γ instead of the graph's importances (one per node; any other length: the
+    /// graph's).
+    pub fn set_gamma(&mut self, gamma: Vec<f64>) {
+        self.gamma = if gamma.len() == self.preds.len() { gamma } else { Vec::new() };
     }
 
     /// A display chosen in the radial menu normally stays until the visitor moves away; once
@@ -469,7 +479,7 @@ impl Recommender {
                 None => 1.0,
                 Some(t) => (((now - t).max(0.0) / self.settings.t_max_secs).powi(2)).min(1.0),
             };
-            base[i] = n.importance * d * r;
+            base[i] = self.gamma.get(i).copied().unwrap_or(n.importance) * d * r;
             if base[i].is_nan() || base[i] <= 0.0 {
                 continue;
             }

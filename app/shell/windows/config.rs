@@ -84,6 +84,11 @@ pub struct Config {
     pub seed: u64,
     /// Pixel tolerance of the cut (larger = faster, coarser).
     pub tolerance_px: f32,
+    /// Where the visit statistics and log go (default: [`crate::stats::state_dir`]); relative
+    /// to the config file.
+    pub state_dir: Option<PathBuf>,
+    /// Whether and how popularity adjusts the nodes' importance.
+    pub popularity: kiosk_core::stats::PopularitySettings,
 }
 
 impl Default for Config {
@@ -101,6 +106,8 @@ impl Default for Config {
             volume: 1.0,
             seed: 0,
             tolerance_px: 1.5,
+            state_dir: None,
+            popularity: kiosk_core::stats::PopularitySettings::default(),
         }
     }
 }
@@ -122,6 +129,11 @@ impl Config {
             && let Some(dir) = path.parent()
         {
             c.content = dir.join(&c.content);
+        }
+        if let (Some(s), Some(dir)) = (c.state_dir.as_mut(), path.parent())
+            && s.is_relative()
+        {
+            *s = dir.join(&*s);
         }
         Ok(c)
     }
@@ -161,12 +173,18 @@ impl Config {
         if self.tolerance_px.is_nan() || self.tolerance_px <= 0.0 {
             return Err(format!("tolerance_px = {}: must be positive", self.tolerance_px));
         }
+        self.popularity.check()?;
         Ok(())
     }
 
     /// The vertical field of view in radians.
     pub fn fov_y(&self) -> f64 {
         self.real_scale.as_ref().map_or(self.fov_deg.to_radians(), RealScale::fov_y)
+    }
+
+    /// The state directory: the configured one, else [`crate::stats::state_dir`].
+    pub fn state_dir(&self) -> PathBuf {
+        self.state_dir.clone().unwrap_or_else(crate::stats::state_dir)
     }
 
     /// The exhibit directories in gallery order.
@@ -210,6 +228,10 @@ mod tests {
         assert!(e.contains("atract_after_secs"), "{e}");
         let e = Config::parse("[controller]\nrotation = 45").expect_err("rotation");
         assert!(e.contains("rotation = 45"), "{e}");
+        let e = Config::parse("[popularity]\nbound = 1.5").expect_err("bound");
+        assert!(e.contains("[popularity] bound"), "{e}");
+        let c = Config::parse("[popularity]\nenabled = true").expect("popularity");
+        assert!(c.popularity.enabled && c.popularity.bound == 0.25);
         let e = Config::parse("volume = 2.0").expect_err("volume");
         assert!(e.contains("volume"), "{e}");
         let e = Config::parse("fov_deg = \"wide\"").expect_err("type");

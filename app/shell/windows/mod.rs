@@ -153,6 +153,7 @@ pub fn kiosk_settings(config: &Config, size: (u32, u32), controller_aspect: f64,
         reset_after_secs: config.reset_after_secs,
         languages: config.languages.clone(),
         explore,
+        popularity: config.popularity,
         ..Default::default()
     }
 }
@@ -164,6 +165,10 @@ pub fn run(opts: RunOptions) -> anyhow::Result<()> {
     event_loop.set_control_flow(ControlFlow::Poll);
     let mut app = App { opts, exhibits, state: None, error: None };
     event_loop.run_app(&mut app)?;
+    if let Some(s) = app.state.as_mut() {
+        // The visit in progress ends with the kiosk; its statistics are kept.
+        s.persist(&app.exhibits, true);
+    }
     match app.error {
         Some(e) => Err(e),
         None => Ok(()),
@@ -215,6 +220,11 @@ struct Running {
     rendered: u64,
     /// The last frame's submission, waited for before the next frame.
     in_flight: Option<wgpu::SubmissionIndex>,
+    /// Where the statistics and the visit log go.
+    state_dir: PathBuf,
+    /// Unix time of kiosk time 0, and the clock's speed (for the visits' wall times).
+    wall_origin: f64,
+    speed: f64,
 }
 
 fn rss_kb() -> Option<u64> {
@@ -299,7 +309,16 @@ impl App {
             .unwrap_or(cfg.seed);
         let settings =
             kiosk_settings(cfg, projection.canvas.size, f64::from(ctrl.0) / f64::from(ctrl.1.max(1)), seed);
-        let kiosk = Kiosk::new(settings, self.exhibits.len(), 0.0);
+        let mut kiosk = Kiosk::new(settings, self.exhibits.len(), 0.0);
+        let state_dir = cfg.state_dir();
+        for (i, ex) in self.exhibits.iter().enumerate() {
+            let name = crate::stats::exhibit_name(&ex.dir);
+            kiosk.set_stats(i, crate::stats::load_stats(&crate::stats::stats_path(&state_dir, &name)));
+        }
+        tracing::info!("visit statistics in {}", state_dir.display());
+        let wall_origin = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0.0, |d| d.as_secs_f64());
         let narrator = audio::Narrator::new(cfg.volume, self.opts.silent);
         let record = match &self.opts.record {
             Some(p) => {
@@ -358,6 +377,9 @@ impl App {
             rss_warm: None,
             rendered: 0,
             in_flight: None,
+            state_dir,
+            wall_origin,
+            speed: self.opts.speed.max(1e-3),
         })
     }
 }
@@ -541,6 +563,7 @@ impl Running {
             for fx in &frame.effects {
                 self.effect(fx, exhibits);
             }
+            self.persist(exhibits, false);
             if let Some(w) = self.trace.as_mut() {
                 writeln!(w, "{}", serde_json::to_string(&frame).unwrap_or_default())?;
             }
@@ -588,6 +611,45 @@ impl Running {
             return Ok(false);
         }
         Ok(true)
+    }
+
+    /// Writes the visits that ended (and, `exit`, the one in progress) to the log, and the
+    /// statistics of the exhibits they explored. Only at a visit's end: not every frame.
+    fn persist(&mut self, exhibits: &[Exhibit], exit: bool) {
+        if exit {
+            let models: Vec<ModelRef<'_, memmap2::Mmap>> =
+                exhibits.iter().map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref() }).collect();
+            self.kiosk.end_visit(&models, self.sim_t, kiosk_core::stats::VisitEnd::Exit);
+        }
+        let visits = self.kiosk.take_visits();
+        let mut touched = std::collections::BTreeSet::new();
+        for mut v in visits {
+            v.wall_start = Some(self.wall_origin + v.start / self.speed);
+            v.wall_end = Some(self.wall_origin + v.end / self.speed);
+            for m in &mut v.models {
+                m.exhibit =
+                    exhibits.get(m.model).map(|e| crate::stats::exhibit_name(&e.dir)).unwrap_or_default();
+                touched.insert(m.model);
+            }
+            if let Err(e) =
+                crate::stats::append_visit(&self.state_dir, &v, crate::stats::LogLimits::default())
+            {
+                self.report("visit log", &format!("{e:#}"));
+            }
+        }
+        if exit {
+            touched.extend(0..exhibits.len());
+        }
+        for i in touched {
+            let (Some(ex), Some(stats)) = (exhibits.get(i), self.kiosk.stats().get(i)) else { continue };
+            if stats.visits == 0 && stats.nodes.is_empty() {
+                continue;
+            }
+            let path = crate::stats::stats_path(&self.state_dir, &crate::stats::exhibit_name(&ex.dir));
+            if let Err(e) = crate::stats::save_stats(&path, stats) {
+                self.report("statistics", &format!("{e:#}"));
+            }
+        }
     }
 
     fn effect(&mut self, fx: &KioskEffect, exhibits: &[Exhibit]) {
