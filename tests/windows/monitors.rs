@@ -188,6 +188,8 @@ impl Xorg {
             .arg("--screenshot-dir")
             .arg(dir.path())
             .env("XDG_RUNTIME_DIR", &runtime)
+            // Visit statistics go to the test's directory, not the user's state.
+            .env("ISOKIOSK_STATE", dir.path().join("state"))
             .env("RUST_LOG", "info,wgpu_core=warn,wgpu_hal=warn,naga=warn")
             .stdout(Stdio::null())
             .stderr(std::fs::File::create(&log).expect("kiosk log"))
