@@ -31,6 +31,10 @@ fn main() -> anyhow::Result<()> {
         }
     };
     let mut app = kiosk_author::ui::AuthorApp::new(project, problems, gpu);
+    // The kiosk's statistics of this exhibit, where the kiosk keeps them (read only).
+    let stats =
+        kiosk::stats::stats_path(&kiosk::stats::state_dir(), &kiosk::stats::exhibit_name(&cli.exhibit));
+    app.visitor_stats = kiosk::stats::load_stats(&stats);
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
             .with_inner_size([1400.0, 900.0])

@@ -238,3 +238,29 @@ fn an_edit_is_autosaved_without_input_and_never_over_a_crashed_sessions_autosave
     assert_eq!(title, "Demosthenes (unsaved)");
     assert!(!recovered.exists(), "restored, so no longer offered");
 }
+
+#[test]
+fn the_views_show_what_visitors_did_with_them() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    copy_dir(&repo().join("content/demosthenes"), dir.path());
+    let mut h = harness(dir.path());
+    h.get_by_label_contains("intro").click();
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("no visits recorded yet").is_some());
+    let mut stats = kiosk_core::stats::ExhibitStats { visits: 12, ..Default::default() };
+    stats.nodes.insert(
+        "intro".into(),
+        kiosk_core::stats::NodeTotals {
+            displays: 4,
+            dwell_secs: 100.0,
+            proposals: 4,
+            accepted: 3,
+            menu_picks: 2,
+            ..Default::default()
+        },
+    );
+    h.state_mut().visitor_stats = stats;
+    h.run_steps(2);
+    let line = "Visitors (12 visits): shown 4 times, 25 s each on average, proposals accepted 75 %, picked in the menu 2 times";
+    assert!(h.query_by_label(line).is_some(), "the selected view's figures");
+}

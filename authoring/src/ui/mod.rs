@@ -85,6 +85,9 @@ pub struct AuthorApp {
     pub replayed: Option<preview::SessionPreview>,
     last_autosave: f64,
     narrator: Option<kiosk::windows::audio::Narrator>,
+    /// What the kiosk's visitors did with this exhibit's views (its statistics file), shown as a
+    /// heat colour per view and a few figures for the selected one.
+    pub visitor_stats: kiosk_core::stats::ExhibitStats,
 }
 
 /// Where autosaves go, beside the graph.
@@ -167,6 +170,7 @@ impl AuthorApp {
             replayed: None,
             last_autosave: 0.0,
             narrator: None,
+            visitor_stats: kiosk_core::stats::ExhibitStats::default(),
         }
     }
 
@@ -609,13 +613,22 @@ impl AuthorApp {
         }
         ui.separator();
         let mut pick = None;
+        let heat = kiosk_core::stats::popularity(&self.project.graph, &self.visitor_stats);
+        let seen = self.visitor_stats.visits > 0;
         egui::ScrollArea::vertical().show(ui, |ui| {
-            for n in &self.project.graph.nodes {
+            for (n, p) in self.project.graph.nodes.iter().zip(&heat) {
                 let title = n.title.get(&self.lang, &self.project.graph.default_lang).unwrap_or("");
                 let label = if title.is_empty() { n.id.clone() } else { format!("{} — {title}", n.id) };
-                if ui.selectable_label(self.selected.as_deref() == Some(n.id.as_str()), label).clicked() {
-                    pick = Some(n.id.clone());
-                }
+                ui.horizontal(|ui| {
+                    // Popularity with the visitors: blue (ignored) to red (popular); grey before
+                    // any visit.
+                    let (rect, _) = ui.allocate_exact_size(egui::vec2(10.0, 10.0), egui::Sense::hover());
+                    let colour = if seen { heat_colour(*p) } else { egui::Color32::GRAY };
+                    ui.painter().circle_filled(rect.center(), 5.0, colour);
+                    if ui.selectable_label(self.selected.as_deref() == Some(n.id.as_str()), label).clicked() {
+                        pick = Some(n.id.clone());
+                    }
+                });
             }
         });
         if let Some(id) = pick {
@@ -655,6 +668,7 @@ impl AuthorApp {
             return;
         };
         ui.heading(format!("View '{id}'"));
+        ui.label(visitor_figures(&self.visitor_stats, &id));
         ui.horizontal(|ui| {
             if ui.button("Go to view").clicked() {
                 self.set_camera(self.project.graph.nodes[i].view);
@@ -889,4 +903,27 @@ impl AuthorApp {
 /// view's size (1280×720), fitted and centred, reading no other file.
 pub fn svg_to_png(path: &Path) -> anyhow::Result<image::RgbaImage> {
     kiosk::media::read_image(path).map_err(anyhow::Error::msg)
+}
+
+/// Blue (0) through purple to red (1).
+fn heat_colour(p: f64) -> egui::Color32 {
+    let p = p.clamp(0.0, 1.0);
+    egui::Color32::from_rgb((40.0 + 215.0 * p) as u8, 60, (255.0 - 215.0 * p) as u8)
+}
+
+/// What visitors did with one view, in a line.
+pub fn visitor_figures(stats: &kiosk_core::stats::ExhibitStats, id: &str) -> String {
+    if stats.visits == 0 {
+        return "Visitors: no visits recorded yet".into();
+    }
+    let t = stats.get(id);
+    let pct = |r: Option<f64>| r.map_or("–".to_string(), |r| format!("{:.0} %", 100.0 * r));
+    format!(
+        "Visitors ({} visits): shown {} times, {:.0} s each on average, proposals accepted {}, picked in the menu {} times",
+        stats.visits,
+        t.displays,
+        t.mean_dwell().unwrap_or(0.0),
+        pct(t.acceptance()),
+        t.menu_picks
+    )
 }
