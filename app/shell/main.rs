@@ -309,7 +309,7 @@ fn main() -> anyhow::Result<()> {
                 .with_context(|| format!("cannot read session {}", session.display()))?;
             let parsed = kiosk_core::session::Session::parse(&text)
                 .with_context(|| format!("{}", session.display()))?;
-            let settings = kiosk_core::replay::ReplaySettings {
+            let settings = kiosk_core::replay::ExploreSettings {
                 controller: controller.parse().map_err(anyhow::Error::msg)?,
                 seed: seed.or(parsed.header.as_ref().and_then(|h| h.seed)).unwrap_or(0),
                 ..Default::default()

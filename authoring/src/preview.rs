@@ -6,14 +6,14 @@ use kiosk::MappedStore;
 use kiosk_core::explore::Explorer;
 use kiosk_core::graph::InfoGraph;
 use kiosk_core::kiosk::{KioskSettings, Mode, ModelRef, run_session};
-use kiosk_core::replay::ReplaySettings;
+use kiosk_core::replay::ExploreSettings;
 use kiosk_core::session::Session;
 
 /// The nodes the engine displays, in order, when nobody touches for `secs` seconds (each
 /// proposal accepted), with this seed.
 pub fn simulate_walk(store: &MappedStore, graph: &InfoGraph, seed: u64, secs: f64) -> Vec<String> {
     // 20 Hz is plenty for a walk without a visitor and keeps the preview instant.
-    let settings = ReplaySettings { seed, fps: 20.0, size_px: (1280, 720), ..ReplaySettings::default() };
+    let settings = ExploreSettings { seed, fps: 20.0, size_px: (1280, 720), ..ExploreSettings::default() };
     let mut explorer = Explorer::new(store, Some(graph), &settings, 0.0);
     explorer.autopilot = true;
     let frames = (secs * settings.fps).ceil() as u64;

@@ -11,7 +11,7 @@
 use glam::DVec3;
 use kiosk::MappedStore;
 use kiosk_core::camera::{IsoCam, IsoCamSettings, SceneRef};
-use kiosk_core::replay::{self, ControllerKind, ReplaySettings, Trace, initial_camera};
+use kiosk_core::replay::{self, ControllerKind, ExploreSettings, Trace, initial_camera};
 use kiosk_core::session::Script;
 use kiosk_core::{Cut, CutParams};
 use plotters::prelude::*;
@@ -268,7 +268,7 @@ fn controllers(store: &MappedStore) {
     println!("|---|---|---|---|---|---|---|---|");
     for (name, script) in &sessions {
         for kind in [ControllerKind::IsoCam, ControllerKind::Trackball, ControllerKind::Acevit] {
-            let settings = ReplaySettings { controller: kind, ..ReplaySettings::default() };
+            let settings = ExploreSettings { controller: kind, ..ExploreSettings::default() };
             let t = replay::run(store, &script.session(), &settings);
             let (err, acc, jerk) = quality(&t, diag, settings.fps);
             let min = t.frames[0].min_distance;

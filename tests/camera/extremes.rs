@@ -4,7 +4,7 @@
 use super::{Script, assert_safe, run};
 use crate::common;
 use glam::DVec3;
-use kiosk_core::replay::{self, ControllerKind, ReplaySettings};
+use kiosk_core::replay::{self, ControllerKind, ExploreSettings};
 
 fn session() -> Script {
     Script::new().joystick(1, (0.2, 0.05), 2.0).wait(0.2).pinch(0.1, 0.7, 0.8).wait(0.2).joystick(
@@ -60,7 +60,7 @@ fn tiny_minimum_distance_and_huge_isolevel_stay_finite_and_safe() {
         deep = deep.pinch(0.05, 0.95, 0.5).wait(0.05);
     }
     let deep = deep.joystick(1, (0.2, 0.0), 1.0);
-    let s = ReplaySettings { min_distance_fraction: 1e-5, ..ReplaySettings::default() };
+    let s = ExploreSettings { min_distance_fraction: 1e-5, ..ExploreSettings::default() };
     let t = replay::run(&b.store, &deep.session(), &s);
     assert_safe(&t);
     let diag = f64::from(b.store.bbox().diagonal());
@@ -76,7 +76,7 @@ fn tiny_minimum_distance_and_huge_isolevel_stay_finite_and_safe() {
         far = far.pinch(0.95, 0.05, 0.3).wait(0.05);
     }
     let far = far.joystick(1, (0.3, 0.1), 2.0);
-    let unbounded = ReplaySettings { max_distance_factor: f64::INFINITY, ..ReplaySettings::default() };
+    let unbounded = ExploreSettings { max_distance_factor: f64::INFINITY, ..ExploreSettings::default() };
     let t = replay::run(&b.store, &far.session(), &unbounded);
     assert_safe(&t);
     let max_iso = t.frames.iter().filter_map(|f| f.isolevel).fold(0.0, f64::max);

@@ -5,11 +5,11 @@ mod properties;
 mod sessions;
 
 use crate::common;
-use kiosk_core::replay::{self, ControllerKind, ReplaySettings, Trace};
+use kiosk_core::replay::{self, ControllerKind, ExploreSettings, Trace};
 pub use kiosk_core::session::Script;
 
 pub fn run(store: &kiosk::MappedStore, script: &Script, controller: ControllerKind) -> Trace {
-    let settings = ReplaySettings { controller, ..ReplaySettings::default() };
+    let settings = ExploreSettings { controller, ..ExploreSettings::default() };
     replay::run(store, &script.session(), &settings)
 }
 

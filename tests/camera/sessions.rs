@@ -4,7 +4,7 @@
 use super::{Script, assert_safe, run, scan};
 use crate::common;
 use glam::DVec3;
-use kiosk_core::replay::{ControllerKind, ReplaySettings};
+use kiosk_core::replay::{ControllerKind, ExploreSettings};
 
 fn v(a: [f64; 3]) -> DVec3 {
     DVec3::from_array(a)
@@ -335,7 +335,7 @@ fn replay_is_byte_identical_and_the_cli_writes_the_trace() {
         "{}",
         String::from_utf8_lossy(&st.stderr)
     );
-    let _ = ReplaySettings::default();
+    let _ = ExploreSettings::default();
 }
 
 #[test]
@@ -385,7 +385,7 @@ fn zooming_out_is_bounded_and_eases_back_for_every_controller() {
         let trace = run(&b.store, &script, kind);
         let dist: Vec<f64> = trace.frames.iter().map(|f| (v(f.eye) - center).length()).collect();
         // The initial view is the framing view: the bound is three times its distance.
-        let bound = ReplaySettings::default().max_distance_factor * dist[0];
+        let bound = ExploreSettings::default().max_distance_factor * dist[0];
         let far = dist.iter().copied().fold(0.0, f64::max);
         assert!(far > bound, "{kind:?}: the pinches never reached the bound ({far} vs {bound})");
         assert!(far <= 1.6 * bound, "{kind:?}: flew away to {:.2} × the bound", far / bound);

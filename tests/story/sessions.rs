@@ -6,7 +6,7 @@ use super::node;
 use crate::common;
 use glam::DVec3;
 use kiosk_core::graph::InfoGraph;
-use kiosk_core::replay::{self, ReplaySettings, Trace};
+use kiosk_core::replay::{self, ExploreSettings, Trace};
 use kiosk_core::session::Script;
 
 struct Exhibit {
@@ -34,7 +34,7 @@ impl Exhibit {
     }
 
     fn run(&self, graph: &InfoGraph, script: &Script) -> Trace {
-        replay::run_story(&self.built.store, &script.session(), &ReplaySettings::default(), Some(graph))
+        replay::run_story(&self.built.store, &script.session(), &ExploreSettings::default(), Some(graph))
     }
 }
 
@@ -214,7 +214,7 @@ fn demo_exhibit_loads_and_plays(name: &str) {
     let t = replay::run_story(
         &store,
         &Script::new().wait(40.0).cancel(99).session(),
-        &ReplaySettings::default(),
+        &ExploreSettings::default(),
         Some(&g),
     );
     assert_eq!(
@@ -286,7 +286,7 @@ struct Driven {
 fn drive(
     ex: &Exhibit,
     graph: &InfoGraph,
-    settings: &ReplaySettings,
+    settings: &ExploreSettings,
     script: &Script,
 ) -> (Vec<Driven>, kiosk_core::explore::Explorer) {
     let store = &ex.built.store;
@@ -327,7 +327,7 @@ fn a_real_scale_projection_holds_through_a_go_to() {
         .joystick(1, (0.15, 0.0), 2.0)
         .cancel(99);
     // Real scale: the configured field of view, every frame, the go-to included.
-    let real = ReplaySettings { fov_y: 0.6, real_scale: true, ..ReplaySettings::default() };
+    let real = ExploreSettings { fov_y: 0.6, real_scale: true, ..ExploreSettings::default() };
     let (run, _) = drive(&ex, &g, &real, &script);
     assert!(run.iter().any(|d| state_of(d) == "display"), "the node was never displayed");
     for d in &run {
@@ -335,7 +335,7 @@ fn a_real_scale_projection_holds_through_a_go_to() {
     }
     // Not real scale: the node's field of view frames its go-to; moving brings the configured
     // one back.
-    let plain = ReplaySettings { fov_y: 0.6, ..ReplaySettings::default() };
+    let plain = ExploreSettings { fov_y: 0.6, ..ExploreSettings::default() };
     let (run, _) = drive(&ex, &g, &plain, &script);
     let shown = run.iter().find(|d| state_of(d) == "display").expect("displayed");
     assert_eq!(shown.cam.fov_y, 0.8, "the go-to did not frame the node with its field of view");
@@ -393,7 +393,7 @@ fn a_menu_pick_during_a_proposal_counts_as_a_menu_pick() {
         .up(1, 0.5, 0.3)
         .wait(3.0)
         .cancel(99);
-    let (run, x) = drive(&ex, &g, &ReplaySettings::default(), &script);
+    let (run, x) = drive(&ex, &g, &ExploreSettings::default(), &script);
     assert!(
         run.iter().any(|d| state_of(d) == "propose" && d.frame.menu.is_some()),
         "no proposal while the menu was open"
@@ -420,7 +420,7 @@ fn the_hidden_nudge_moves_each_controller_toward_the_attracting_view() {
     let store = &ex.built.store;
     let g = graph(vec![ex.orbited("side", 60.0)]);
     let goal = g.nodes[0].view.eye;
-    let settings = ReplaySettings::default();
+    let settings = ExploreSettings::default();
     let cut = kiosk_core::Cut::leaves(store);
     let scene = SceneRef { store, cut: &cut };
     let diag = scene.diagonal();

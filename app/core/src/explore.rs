@@ -2,14 +2,14 @@
 //! advanced one frame at a time at injected times. `replay` drives it from a session file; the
 //! kiosk drives it from a window's touch events. Both take exactly this path.
 //!
-//! The projection: the configured field of view ([`ReplaySettings::fov_y`]) holds. When it is a
-//! real-scale projection ([`ReplaySettings::real_scale`]), it holds always: a go-to ends at the
+//! The projection: the configured field of view ([`ExploreSettings::fov_y`]) holds. When it is a
+//! real-scale projection ([`ExploreSettings::real_scale`]), it holds always: a go-to ends at the
 //! node's eye, target and up with the configured field of view, never the node's. Otherwise a
 //! node's field of view frames its go-to (the animation ends at the node's exact view, so its
 //! overlay lines up) and stays while the visitor does not move; once the visitor moves again the
 //! field of view eases back to the configured one ([`FOV_EASE_SECS`]).
 //!
-//! The distance: the eye may be at most [`ReplaySettings::max_distance_factor`] framing
+//! The distance: the eye may be at most [`ExploreSettings::max_distance_factor`] framing
 //! distances (the initial view's distance, the whole model in view) from the model's centre.
 //! Beyond it (any controller), zooming out is damped to nothing at 1.5 times the bound and the
 //! camera eases back to the bound ([`DISTANCE_EASE_SECS`]), moving straight toward the centre
@@ -20,15 +20,78 @@
 //! the trackballs keep pan as a pan and move the eye against the input.
 
 use crate::camera::{Camera, Controller, GoTo, Intent, SceneRef};
+use crate::camera::{ControllerKind, initial_camera, make_controller};
+use crate::gesture::GestureSettings;
 use crate::gesture::{Gestures, MenuEvent, TouchEvent};
 use crate::graph::InfoGraph;
 use crate::recommend::{
     Effect, RecEvent, RecState, Recommender, Sense, ViewContext, ViewIndex, radial_candidates, slot_for_angle,
 };
-use crate::replay::{Frame, MenuTrace, ReplaySettings, Summary, initial_camera, make_controller};
+use crate::recommend::{RadialSettings, RecSettings};
 use crate::scene::{Cut, CutParams, Level, Store};
+use crate::trace::{Frame, MenuTrace, Summary};
 use glam::DVec3;
 use rand::SeedableRng;
+
+/// Settings of an exploration (the kiosk's and a replay's).
+#[derive(Clone, Copy, Debug)]
+pub struct ExploreSettings {
+    /// Frames per second of the fixed clock.
+    pub fps: f64,
+    /// Viewport of the projection (pixels) for the cut.
+    pub size_px: (u32, u32),
+    /// Vertical field of view (radians): the configured projection.
+    pub fov_y: f64,
+    /// Whether `fov_y` is a real-scale projection (the angle the screen subtends at the viewer):
+    /// then it holds always, a node's own field of view is not used (see [`crate::explore`]).
+    pub real_scale: bool,
+    /// Farthest the eye may be from the model's centre, in framing distances (the distance of
+    /// the initial view, which shows the whole model); beyond it the camera eases back
+    /// (infinite: no bound).
+    pub max_distance_factor: f64,
+    /// Seconds simulated after the last event.
+    pub tail_secs: f64,
+    /// The controller.
+    pub controller: ControllerKind,
+    /// Seed of every random choice.
+    pub seed: u64,
+    /// Gesture thresholds.
+    pub gestures: GestureSettings,
+    /// Cut settings.
+    pub cut: CutParams,
+    /// Minimum distance as a fraction of the model diagonal.
+    pub min_distance_fraction: f64,
+    /// Global up vector.
+    pub up: DVec3,
+    /// Recommendation engine settings (used when a graph is given).
+    pub recommend: RecSettings,
+    /// Radial menu settings.
+    pub radial: RadialSettings,
+    /// Points of the cut sampled per frame for view similarity.
+    pub similarity_samples: usize,
+}
+
+impl Default for ExploreSettings {
+    fn default() -> Self {
+        Self {
+            fps: 60.0,
+            size_px: (1920, 1080),
+            fov_y: 0.8,
+            real_scale: false,
+            max_distance_factor: 3.0,
+            tail_secs: 1.0,
+            controller: ControllerKind::IsoCam,
+            seed: 0,
+            gestures: GestureSettings::default(),
+            cut: CutParams::default(),
+            min_distance_fraction: 0.01,
+            up: DVec3::Y,
+            recommend: RecSettings::default(),
+            radial: RadialSettings::default(),
+            similarity_samples: 64,
+        }
+    }
+}
 
 /// Time constant (seconds) of the field of view's return to the configured one.
 pub const FOV_EASE_SECS: f64 = 0.4;
@@ -76,7 +139,7 @@ pub struct RadialMenu {
 /// The state of one exploration.
 #[derive(Clone, Debug)]
 pub struct Explorer {
-    settings: ReplaySettings,
+    settings: ExploreSettings,
     rng: rand_pcg::Pcg64,
     cut: Cut,
     controller: Controller,
@@ -103,7 +166,7 @@ impl Explorer {
     pub fn new<B: AsRef<[u8]>>(
         store: &Store<B>,
         graph: Option<&InfoGraph>,
-        settings: &ReplaySettings,
+        settings: &ExploreSettings,
         now: f64,
     ) -> Self {
         let diag = f64::from(store.bbox().diagonal());

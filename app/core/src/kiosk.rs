@@ -13,14 +13,15 @@
 //! Each model's long-run statistics live in the kiosk across visits ([`Kiosk::stats`]); the
 //! shell loads and saves them. With `popularity` on, each new exploration's γ comes from them.
 
+use crate::explore::ExploreSettings;
 use crate::explore::Explorer;
 use crate::gesture::{TouchEvent, TouchKind};
 use crate::graph::InfoGraph;
 use crate::recommend::{Effect, RecState};
-use crate::replay::{Frame, ReplaySettings};
 use crate::scene::Store;
 use crate::session::Session;
 use crate::stats::{ExhibitStats, Observer, PopularitySettings, VisitEnd, VisitRecord, adjusted_importance};
+use crate::trace::Frame;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -102,7 +103,7 @@ pub struct KioskSettings {
     /// …having moved at most this far.
     pub tap_max_move: f64,
     /// Settings of each exploration (controller, gestures, recommender, radial menu, seed).
-    pub explore: ReplaySettings,
+    pub explore: ExploreSettings,
     /// Whether and how popularity adjusts γ ([`crate::stats`]).
     pub popularity: PopularitySettings,
 }
@@ -116,7 +117,7 @@ impl Default for KioskSettings {
             swipe_min: 0.12,
             tap_max_secs: 0.5,
             tap_max_move: 0.03,
-            explore: ReplaySettings::default(),
+            explore: ExploreSettings::default(),
             popularity: PopularitySettings::default(),
         }
     }

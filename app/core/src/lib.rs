@@ -16,6 +16,7 @@ pub mod replay;
 pub mod scene;
 pub mod session;
 pub mod stats;
+pub mod trace;
 
 pub use geom::Aabb;
 pub use scene::{

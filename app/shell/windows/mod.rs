@@ -19,7 +19,7 @@ use kiosk_core::gesture::{TouchEvent, TouchKind};
 use kiosk_core::graph::InfoGraph;
 use kiosk_core::kiosk::{Kiosk, KioskEffect, KioskSettings, Mode, ModelRef};
 use kiosk_core::recommend::RecState;
-use kiosk_core::replay::{ReplaySettings, initial_camera};
+use kiosk_core::replay::{ExploreSettings, initial_camera};
 use kiosk_core::session::Session;
 use kiosk_core::{Cut, CutParams};
 use kiosk_render::{Blit, Gpu, RenderSettings, Renderer, wgpu};
@@ -139,7 +139,7 @@ pub fn load_exhibits(config: &Config) -> anyhow::Result<Vec<Exhibit>> {
 /// The kiosk's behaviour settings from the configuration, for a projection of `size` pixels and
 /// a controller of aspect `controller_aspect`.
 pub fn kiosk_settings(config: &Config, size: (u32, u32), controller_aspect: f64, seed: u64) -> KioskSettings {
-    let mut explore = ReplaySettings {
+    let mut explore = ExploreSettings {
         size_px: size,
         fov_y: config.fov_y(),
         real_scale: config.real_scale.is_some(),

@@ -8,10 +8,12 @@
 //! - [`Acevit`]: the auto-centering trackball of thesis 8.3.1.
 
 mod acevit;
+mod factory;
 mod isocam;
 mod trackball;
 
 pub use acevit::{Acevit, AcevitSettings};
+pub use factory::{ControllerKind, initial_camera, make_controller};
 pub use isocam::{IsoCam, IsoCamSettings, StepStats, exceeds_tilt_limit};
 pub use trackball::Trackball;
 
