@@ -203,6 +203,9 @@ fn demo_exhibit_loads_and_plays(name: &str) {
             );
         }
         assert!(n.roi_bbox.is_some() && n.thumbnail.is_some() && n.roi_mask.is_some(), "{}", n.id);
+        // The mask is loaded for the engine (Eq. 11.3), not only named.
+        let bitmap = n.roi_bitmap.as_ref().unwrap_or_else(|| panic!("{}: ROI mask not loaded", n.id));
+        assert!(bitmap.count() > 0 && bitmap.count() < bitmap.w * bitmap.h, "{}: {bitmap:?}", n.id);
         let files = n.overlay.0.values().chain(n.narration.0.values()).chain(&n.thumbnail).chain(&n.roi_mask);
         for f in files {
             assert!(dir.join(f).is_file(), "{name}/{}: {f} missing", n.id);

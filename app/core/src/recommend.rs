@@ -6,9 +6,16 @@
 //! S = γ · D · R · σ, D = Π (1 − ω (1 − visⱼ)), R = min((ΔT / T_max)², 1) after a display or a
 //! proposal (1 before), σ from Eq. 11.3 for views in sight with enough ROI samples, else
 //! Eq. 11.4. Selection is proportional to the score, among visible candidates first.
+//!
+//! Eq. 11.3 as the thesis states it: the samples s_j in the region of interest of view i are
+//! those that project, through view i, onto a set pixel of the node's ROI mask
+//! ([`crate::graph::Node::roi_bitmap`], loaded by the shell); the ROI box is only the fast
+//! pre-filter (11.3.1, 11.5), and decides alone when the mask is missing or unreadable. The
+//! distances compare P V_i s and P V_cur s with the same, current, projection P: a node's own
+//! field of view serves only to place its mask.
 
 use crate::camera::Camera;
-use crate::graph::{InfoGraph, MANDATORY};
+use crate::graph::{InfoGraph, MANDATORY, Node};
 use glam::{DVec2, DVec3};
 use rand::Rng;
 use serde::Serialize;
@@ -256,6 +263,12 @@ impl Projector {
         }
     }
 
+    /// The same view seen with another projection (`inv_tan` = 1 / tan(fov_y / 2)).
+    #[inline]
+    fn with_inv_tan(self, inv_tan: f64) -> Self {
+        Self { inv_tan, ..self }
+    }
+
     /// NDC (x, y) of `p` for a viewport of the given aspect ratio, `None` behind the eye.
     #[inline]
     pub fn ndc(&self, p: DVec3, aspect: f64) -> Option<DVec2> {
@@ -289,27 +302,36 @@ impl<'a> StepFrame<'a> {
         Self { ctx, cur, cur_ndc, t_cur }
     }
 
-    /// Eq. 11.3.
-    fn close(&self, view: &Projector, roi: Option<(DVec3, DVec3)>, min_roi: usize) -> Option<f64> {
+    /// Eq. 11.3 for a node seen through `own` (its view with its own field of view). The samples
+    /// s_j "inside the region of interest of view i" are those inside the node's ROI box (a fast
+    /// pre-filter) that project, through the node's own view, onto a set cell of its ROI mask;
+    /// without a mask the box alone decides, without either the node's frustum. The distances
+    /// compare P V_i s and P V_cur s with the same, current, projection P (the visitor's field
+    /// of view and aspect), as the equation has it.
+    fn close(&self, own: &Projector, node: &Node, min_roi: usize) -> Option<f64> {
         let k = self.ctx.samples.len();
         if k == 0 {
             return None;
         }
+        let aspect = self.ctx.aspect;
+        let through_p = own.with_inv_tan(self.cur.inv_tan);
         let (mut r, mut sum) = (0usize, 0.0);
         for (&s, cur) in self.ctx.samples.iter().zip(&self.cur_ndc) {
-            let in_roi = match roi {
-                Some((lo, hi)) => s.cmpge(lo).all() && s.cmple(hi).all(),
-                None => true,
+            if let Some((lo, hi)) = node.roi_bbox
+                && !(s.cmpge(lo).all() && s.cmple(hi).all())
+            {
+                continue;
+            }
+            let in_roi = match (&node.roi_bitmap, node.roi_bbox) {
+                (Some(mask), _) => own.ndc(s, mask.aspect).is_some_and(|p| mask.covers(p)),
+                (None, Some(_)) => true,
+                (None, None) => own.ndc(s, aspect).is_some_and(|p| p.x.abs() <= 1.0 && p.y.abs() <= 1.0),
             };
             if !in_roi {
                 continue;
             }
-            let pi = view.ndc(s, self.ctx.aspect);
-            if roi.is_none() && !pi.is_some_and(|p| p.x.abs() <= 1.0 && p.y.abs() <= 1.0) {
-                continue;
-            }
             r += 1;
-            let d2 = match (pi, cur) {
+            let d2 = match (through_p.ndc(s, aspect), cur) {
                 (Some(a), Some(b)) => (a - *b).length_squared(),
                 _ => XI2,
             };
@@ -336,15 +358,11 @@ impl<'a> StepFrame<'a> {
     }
 }
 
-/// Close similarity, Eq. 11.3, of `view` to `ctx.camera` over the samples; `None` when fewer
-/// than `min_roi` samples fall in the view's region of interest (its ROI box, or its frustum).
-pub fn similarity_close(
-    view: &Camera,
-    roi: Option<(DVec3, DVec3)>,
-    ctx: &ViewContext<'_>,
-    min_roi: usize,
-) -> Option<f64> {
-    StepFrame::new(ctx).close(&Projector::new(view), roi, min_roi)
+/// Close similarity, Eq. 11.3, of a node's view to `ctx.camera` over the samples; `None` when
+/// fewer than `min_roi` samples fall in the node's region of interest (its ROI mask within its
+/// box, its box, or its frustum: see the module documentation).
+pub fn similarity_close(node: &Node, ctx: &ViewContext<'_>, min_roi: usize) -> Option<f64> {
+    StepFrame::new(ctx).close(&Projector::new(&node.view), node, min_roi)
 }
 
 /// Far similarity, Eq. 11.4.
@@ -371,8 +389,7 @@ pub fn view_distance(view: &Camera, ctx: &ViewContext<'_>) -> f64 {
 /// The similarity of a node's view to the current one: close metric when it applies, else far.
 pub fn similarity(graph: &InfoGraph, node: usize, ctx: &ViewContext<'_>, settings: &RecSettings) -> f64 {
     let n = &graph.nodes[node];
-    similarity_close(&n.view, n.roi_bbox, ctx, settings.min_roi_samples)
-        .unwrap_or_else(|| similarity_far(&n.view, ctx))
+    similarity_close(n, ctx, settings.min_roi_samples).unwrap_or_else(|| similarity_far(&n.view, ctx))
 }
 
 /// A node's score and whether it was scored with the close metric ("visible").
@@ -483,7 +500,7 @@ impl Recommender {
         for &(_, i) in &visible {
             let n = &graph.nodes[i];
             if let Some(sigma) = frame
-                .close(&self.projectors[i], n.roi_bbox, self.settings.min_roi_samples)
+                .close(&self.projectors[i], n, self.settings.min_roi_samples)
                 .filter(|&s| s > self.settings.visible_threshold)
             {
                 out[i] = Score { score: base[i] * sigma, visible: true };
@@ -811,7 +828,7 @@ pub fn slot_for_angle(angle: f64, count: usize) -> Option<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::graph::{Node, PerLanguage};
+    use crate::graph::{Node, PerLanguage, RoiMask};
     use rand::SeedableRng;
 
     fn graph(n: usize) -> InfoGraph {
@@ -834,6 +851,7 @@ mod tests {
                     thumbnail: None,
                     roi_mask: None,
                     roi_bbox: None,
+                    roi_bitmap: None,
                 }
             })
             .collect();
@@ -856,6 +874,100 @@ mod tests {
             let want: Vec<usize> = all.iter().take(10).map(|x| x.1).collect();
             assert_eq!(got, want);
         }
+    }
+
+    fn node_at(id: &str, eye: DVec3, target: DVec3, fov_y: f64) -> Node {
+        let mut view = Camera { eye, target, up: DVec3::Y, fov_y };
+        view.up = crate::camera::orthonormal_up(view.forward(), DVec3::Y, DVec3::Z);
+        Node {
+            id: id.into(),
+            view,
+            importance: 1.0,
+            title: PerLanguage::default(),
+            text: PerLanguage::default(),
+            overlay: PerLanguage::default(),
+            narration: PerLanguage::default(),
+            thumbnail: None,
+            roi_mask: None,
+            roi_bbox: None,
+            roi_bitmap: None,
+        }
+    }
+
+    fn graph_of(nodes: Vec<Node>) -> InfoGraph {
+        InfoGraph { default_lang: "en".into(), nodes, edges: vec![] }
+    }
+
+    /// The visitor's view: from (0, 0, 5) toward the origin, fov 0.8.
+    fn front() -> Camera {
+        Camera { eye: DVec3::new(0.0, 0.0, 5.0), target: DVec3::ZERO, up: DVec3::Y, fov_y: 0.8 }
+    }
+
+    /// 200 samples on the plane z = 0 spread over the whole 16:9 view of [`front`].
+    fn wall() -> Vec<DVec3> {
+        (0..20)
+            .flat_map(|i| {
+                (0..10).map(move |j| {
+                    DVec3::new(-3.5 + 0.35 * (f64::from(i) + 0.5), -2.0 + 0.4 * (f64::from(j) + 0.5), 0.0)
+                })
+            })
+            .collect()
+    }
+
+    fn ctx(camera: Camera, samples: &[DVec3]) -> ViewContext<'_> {
+        ViewContext { camera, aspect: 16.0 / 9.0, samples, diagonal: 10.0, moving: false }
+    }
+
+    fn everything() -> Option<(DVec3, DVec3)> {
+        Some((DVec3::splat(-10.0), DVec3::splat(10.0)))
+    }
+
+    #[test]
+    fn eq_11_3_counts_only_the_samples_that_fall_on_the_roi_mask() {
+        let samples = wall();
+        let c = ctx(front(), &samples);
+        let s = RecSettings::default();
+        let mut n = node_at("a", front().eye, DVec3::ZERO, 0.8);
+        n.roi_bbox = everything();
+        // The box alone: every sample is in the ROI and projects where it does now.
+        let sigma = similarity(&graph_of(vec![n.clone()]), 0, &c, &s);
+        assert!((sigma - 1.0).abs() < 1e-9, "{sigma}");
+        // The mask covers the left half of the view: the right half's samples are outside the
+        // ROI and count as ξ² (Eq. 11.3), whatever the box says.
+        n.roi_bitmap = RoiMask::from_fn(16, 9, 16.0 / 9.0, |x, _| x < 8);
+        let sigma = similarity(&graph_of(vec![n.clone()]), 0, &c, &s);
+        assert!((sigma - 0.5).abs() < 1e-9, "{sigma}");
+        // The box stays a pre-filter: a box over the right half and a mask over the left half
+        // leave no sample in the ROI.
+        n.roi_bbox = Some((DVec3::new(0.0, -10.0, -10.0), DVec3::splat(10.0)));
+        assert_eq!(similarity_close(&n, &c, 1), None);
+        // A mask over a corner no sample falls on: too few ROI samples for the close metric.
+        n.roi_bbox = everything();
+        n.roi_bitmap = RoiMask::from_fn(32, 18, 16.0 / 9.0, |x, y| x == 0 && y == 0);
+        assert_eq!(similarity_close(&n, &c, 1), None);
+    }
+
+    #[test]
+    fn eq_11_3_projects_both_views_with_the_current_projection() {
+        let samples = wall();
+        let c = ctx(front(), &samples);
+        // The visitor's eye and direction, authored with a narrower field of view: with the same
+        // P for both (Eq. 11.3), every ROI sample projects exactly where it does now.
+        let mut n = node_at("zoomed", front().eye, DVec3::ZERO, 0.4);
+        n.roi_bbox = everything();
+        let sigma = similarity(&graph_of(vec![n]), 0, &c, &RecSettings::default());
+        assert!(sigma > 1.0 - 1e-9, "{sigma}");
+    }
+
+    #[test]
+    fn a_roi_mask_is_downsampled_keeping_thin_strokes() {
+        let m = RoiMask::from_fn(1280, 720, 16.0 / 9.0, |x, y| x == 700 || y == 0).expect("a mask");
+        assert_eq!((m.w, m.h), (128, 72));
+        assert!(m.get(70, 40) && m.get(3, 0) && !m.get(3, 1) && !m.get(128, 0));
+        assert_eq!(m.count(), 128 + 71);
+        assert!(m.covers(DVec2::new(0.0938, -0.5)) && !m.covers(DVec2::new(0.5, -0.5)));
+        assert!(!m.covers(DVec2::new(1.5, 0.99)), "off the view");
+        assert_eq!(RoiMask::from_fn(0, 10, 1.0, |_, _| true), None);
     }
 
     #[test]
