@@ -103,7 +103,7 @@ fn main() -> anyhow::Result<()> {
         let camera = kiosk_core::camera::Camera { eye, target: c, up: DVec3::Y, fov_y: 0.8 };
         let ctx = ViewContext { camera, aspect: 16.0 / 9.0, samples: &s64, diagonal, moving: false };
         let t0 = Instant::now();
-        let cands = radial_candidates(&g, &index, &ctx, &RadialSettings::default(), &mut |from, to| {
+        let cands = radial_candidates(&g, &index, &ctx, &RadialSettings::default(), None, &mut |from, to| {
             let d = to - from;
             let len = d.length();
             len <= 0.0 || store.ray_cast(Level::Cut(&cut), from, d, len).is_none()

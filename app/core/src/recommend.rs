@@ -13,6 +13,17 @@
 //! pre-filter (11.3.1, 11.5), and decides alone when the mask is missing or unreadable. The
 //! distances compare P V_i s and P V_cur s with the same, current, projection P: a node's own
 //! field of view serves only to place its mask.
+//!
+//! The radial menu ([`radial_candidates`], 9.7.2): views by increasing eye distance are tested
+//! (angle to the current direction ≤ 90°, line of sight) until N pass or the graph is exhausted —
+//! a dense cluster of views facing away never empties the menu; those within a mean NDC distance
+//! of 2 are ranked by the engine's similarity (Eq. 11.3 where it applies and is positive, first;
+//! then Eq. 11.4) and the best M are shown, laid out nearest at the top and clockwise by
+//! distance (9.4). The view being displayed (or flown to) is not offered. Mandatory
+//! dependencies do not hide a menu choice: the menu is the visitor's own pick among what is in
+//! front of them, and a point of interest they are looking at must be reachable even when its
+//! introduction is still unseen. Dependencies order only the engine's own proposals; a node
+//! displayed from the menu counts as visited, and its unseen predecessors stay proposable.
 
 use crate::camera::Camera;
 use crate::graph::{InfoGraph, MANDATORY, Node};
@@ -701,7 +712,7 @@ pub enum Sense {
 /// The radial point-of-interest selector (thesis 9.4, 9.7.2).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RadialSettings {
-    /// Nearest views considered (N).
+    /// Views that must pass the angle and line-of-sight tests (N), searched by distance.
     pub nearest: usize,
     /// Views presented (M).
     pub slots: usize,
@@ -709,11 +720,19 @@ pub struct RadialSettings {
     pub max_angle: f64,
     /// Largest mean NDC distance (thesis: 2).
     pub max_ndc_distance: f64,
+    /// Fewest ROI samples for ranking with the close metric (as [`RecSettings::min_roi_samples`]).
+    pub min_roi_samples: usize,
 }
 
 impl Default for RadialSettings {
     fn default() -> Self {
-        Self { nearest: 24, slots: 8, max_angle: std::f64::consts::FRAC_PI_2, max_ndc_distance: 2.0 }
+        Self {
+            nearest: 24,
+            slots: 8,
+            max_angle: std::f64::consts::FRAC_PI_2,
+            max_ndc_distance: 2.0,
+            min_roi_samples: RecSettings::default().min_roi_samples,
+        }
     }
 }
 
@@ -772,47 +791,77 @@ impl ViewIndex {
     }
 }
 
-/// Candidates for the radial menu, nearest first: the `nearest` views closest to the eye whose
-/// direction is within `max_angle` of the current one and that are in line of sight
-/// (`line_of_sight(from, to)`, a ray cast on the scene by the caller), filtered by the mean NDC
-/// distance over the samples; at most `slots`.
+/// Candidates for the radial menu (thesis 9.7.2; see the module documentation): the views
+/// nearest the eye whose direction is within `max_angle` of the current one and that are in line
+/// of sight (`line_of_sight(from, to)`, a ray cast on the scene by the caller), searched by
+/// increasing distance until `nearest` pass or the graph is exhausted, except `exclude` (the
+/// view being displayed); of those within `max_ndc_distance`, the `slots` most similar to the
+/// current view (close metric first, then far), returned nearest first.
 pub fn radial_candidates(
     graph: &InfoGraph,
     index: &ViewIndex,
     ctx: &ViewContext<'_>,
     settings: &RadialSettings,
+    exclude: Option<usize>,
     line_of_sight: &mut dyn FnMut(DVec3, DVec3) -> bool,
 ) -> Vec<usize> {
     let cam = &ctx.camera;
-    if graph.nodes.is_empty() || settings.nearest == 0 {
+    let total = graph.nodes.len();
+    if total == 0 || settings.nearest == 0 || settings.slots == 0 {
         return Vec::new();
     }
     let cos_max = settings.max_angle.cos();
-    let mut out = Vec::new();
-    for i in index.nearest(graph, cam.eye, settings.nearest) {
-        let v = &graph.nodes[i].view;
-        if v.forward().dot(cam.forward()) < cos_max {
-            continue;
+    // Search on by increasing distance until N views pass the angle and visibility tests.
+    let mut passed = Vec::with_capacity(settings.nearest);
+    let mut tested = vec![false; total];
+    let mut k = settings.nearest.min(total);
+    'search: loop {
+        for i in index.nearest(graph, cam.eye, k) {
+            if std::mem::replace(&mut tested[i], true) || Some(i) == exclude {
+                continue;
+            }
+            let v = &graph.nodes[i].view;
+            if v.forward().dot(cam.forward()) < cos_max || !line_of_sight(cam.eye, v.eye) {
+                continue;
+            }
+            passed.push(i);
+            if passed.len() == settings.nearest {
+                break 'search;
+            }
         }
-        if !line_of_sight(cam.eye, v.eye) {
-            continue;
+        if k >= total {
+            break;
         }
+        k = k.saturating_mul(2).min(total);
+    }
+    // The mean NDC distance filter, then the ranking by similarity.
+    let frame = StepFrame::new(ctx);
+    let mut ranked: Vec<(bool, f64, usize, usize)> = Vec::with_capacity(passed.len());
+    for (order, &i) in passed.iter().enumerate() {
+        let node = &graph.nodes[i];
+        let own = Projector::new(&node.view);
+        let through_p = own.with_inv_tan(frame.cur.inv_tan);
         let (mut sum, mut n) = (0.0, 0usize);
-        for &s in ctx.samples {
-            if let (Some(a), Some(b)) = (ndc2(v, s, ctx.aspect), ndc2(cam, s, ctx.aspect)) {
-                sum += (a - b).length();
+        for (&s, cur) in ctx.samples.iter().zip(&frame.cur_ndc) {
+            if let (Some(a), Some(b)) = (through_p.ndc(s, ctx.aspect), cur) {
+                sum += (a - *b).length();
                 n += 1;
             }
         }
         if n == 0 || sum / n as f64 > settings.max_ndc_distance {
             continue;
         }
-        out.push(i);
-        if out.len() == settings.slots {
-            break;
-        }
+        let close = frame.close(&own, node, settings.min_roi_samples).filter(|&s| s > 0.0);
+        let (visible, sigma) = match close {
+            Some(s) => (true, s),
+            None => (false, frame.far(&node.view)),
+        };
+        ranked.push((visible, sigma, order, i));
     }
-    out
+    ranked.sort_by(|a, b| b.0.cmp(&a.0).then(b.1.total_cmp(&a.1)).then(a.2.cmp(&b.2)));
+    ranked.truncate(settings.slots);
+    ranked.sort_by_key(|r| r.2);
+    ranked.into_iter().map(|r| r.3).collect()
 }
 
 /// The radial slot chosen by a finger direction (radians, 0 = up, clockwise) among `count`
@@ -968,6 +1017,96 @@ mod tests {
         assert!(m.covers(DVec2::new(0.0938, -0.5)) && !m.covers(DVec2::new(0.5, -0.5)));
         assert!(!m.covers(DVec2::new(1.5, 0.99)), "off the view");
         assert_eq!(RoiMask::from_fn(0, 10, 1.0, |_, _| true), None);
+    }
+
+    fn radial(g: &InfoGraph, c: &ViewContext<'_>, exclude: Option<usize>) -> Vec<usize> {
+        radial_candidates(g, &ViewIndex::new(g), c, &RadialSettings::default(), exclude, &mut |_, _| true)
+    }
+
+    #[test]
+    fn the_radial_menu_searches_past_a_dense_cluster_of_views_facing_away() {
+        let samples = wall();
+        let c = ctx(front(), &samples);
+        // 30 views right at the visitor's eye, looking back (angle > 90°)…
+        let mut nodes: Vec<Node> = (0..30)
+            .map(|k| {
+                let eye = front().eye + DVec3::new(0.01 * f64::from(k % 6), 0.01 * f64::from(k / 6), 0.0);
+                node_at(&format!("back{k}"), eye, eye + DVec3::Z, 0.8)
+            })
+            .collect();
+        // …and three views a bit farther that look where the visitor looks.
+        for (k, x) in [-0.5, 0.0, 0.5].into_iter().enumerate() {
+            nodes.push(node_at(
+                &format!("good{k}"),
+                DVec3::new(x, 0.0, 6.0 + 0.1 * k as f64),
+                DVec3::ZERO,
+                0.8,
+            ));
+        }
+        let g = graph_of(nodes);
+        assert_eq!(radial(&g, &c, None), vec![31, 30, 32], "nearest first");
+    }
+
+    #[test]
+    fn the_radial_menu_offers_the_most_similar_views_not_just_the_nearest() {
+        let samples = wall();
+        let c = ctx(front(), &samples);
+        // Eight views close to the eye looking aside, eight farther ones looking at the same
+        // place: all within 90° and a mean NDC distance of 2.
+        let mut nodes = Vec::new();
+        for k in 0..8 {
+            let x = 0.1 * f64::from(k) - 0.35;
+            nodes.push(node_at(
+                &format!("aside{k}"),
+                DVec3::new(x, 0.25, 5.0),
+                DVec3::new(2.0, 1.0, 0.0),
+                0.8,
+            ));
+        }
+        for k in 0..8 {
+            let x = 0.1 * f64::from(k) - 0.35;
+            nodes.push(node_at(&format!("same{k}"), DVec3::new(x, 0.0, 6.0), DVec3::new(x, 0.0, 0.0), 0.8));
+        }
+        let g = graph_of(nodes);
+        let got = radial(&g, &c, None);
+        let mut set = got.clone();
+        set.sort_unstable();
+        assert_eq!(set, (8..16).collect::<Vec<_>>(), "{got:?}");
+        let dist = |i: &usize| (g.nodes[*i].view.eye - front().eye).length();
+        assert!(got.windows(2).all(|w| dist(&w[0]) <= dist(&w[1])), "laid out nearest first: {got:?}");
+    }
+
+    #[test]
+    fn the_radial_menu_does_not_offer_the_view_on_display() {
+        let samples = wall();
+        let c = ctx(front(), &samples);
+        let nodes = vec![
+            node_at("shown", front().eye, DVec3::ZERO, 0.8),
+            node_at("left", DVec3::new(-0.5, 0.0, 5.5), DVec3::ZERO, 0.8),
+            node_at("right", DVec3::new(0.6, 0.0, 5.5), DVec3::ZERO, 0.8),
+        ];
+        let g = graph_of(nodes);
+        assert_eq!(radial(&g, &c, None), vec![0, 1, 2]);
+        assert_eq!(radial(&g, &c, Some(0)), vec![1, 2]);
+    }
+
+    #[test]
+    fn a_node_whose_mandatory_predecessor_is_unseen_is_still_offered_and_shown() {
+        let samples = wall();
+        let c = ctx(front(), &samples);
+        let mut g = graph_of(vec![
+            node_at("intro", DVec3::new(0.0, 0.0, -5.0), DVec3::ZERO, 0.8),
+            node_at("detail", DVec3::new(0.3, 0.0, 5.5), DVec3::ZERO, 0.8),
+        ]);
+        g.edges.push(crate::graph::Edge { from: 0, to: 1, weight: MANDATORY });
+        let mut rec = Recommender::new(&g, RecSettings::default(), 0.0);
+        assert!(!rec.feasible(1));
+        assert_eq!(radial(&g, &c, None), vec![1], "the intro is behind the visitor");
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
+        rec.step(&g, &c, RecEvent::MenuSelect(1), 0.0, &mut rng);
+        rec.step(&g, &c, RecEvent::Tick, 10.0, &mut rng);
+        assert!(matches!(rec.state, RecState::Display { node: 1, .. }), "{:?}", rec.state);
+        assert!(rec.stats[1].visited && !rec.stats[0].visited);
     }
 
     #[test]
