@@ -280,6 +280,15 @@ impl Projector {
         Self { inv_tan, ..self }
     }
 
+    /// The view-space x and y of `p` over its depth (NDC before the projection's scale and
+    /// aspect), `None` behind the eye.
+    #[inline]
+    fn unscaled(&self, p: DVec3) -> Option<DVec2> {
+        let d = p - self.eye;
+        let z = d.dot(self.forward);
+        (z > 0.0).then(|| DVec2::new(d.dot(self.right), d.dot(self.up)) / z)
+    }
+
     /// NDC (x, y) of `p` for a viewport of the given aspect ratio, `None` behind the eye.
     #[inline]
     pub fn ndc(&self, p: DVec3, aspect: f64) -> Option<DVec2> {
@@ -325,7 +334,8 @@ impl<'a> StepFrame<'a> {
             return None;
         }
         let aspect = self.ctx.aspect;
-        let through_p = own.with_inv_tan(self.cur.inv_tan);
+        // One projection per sample: the node's own frame and the current P differ only in scale.
+        let screen = |u: DVec2, aspect: f64, inv_tan: f64| DVec2::new(u.x / aspect, u.y) * inv_tan;
         let (mut r, mut sum) = (0usize, 0.0);
         for (&s, cur) in self.ctx.samples.iter().zip(&self.cur_ndc) {
             if let Some((lo, hi)) = node.roi_bbox
@@ -333,17 +343,21 @@ impl<'a> StepFrame<'a> {
             {
                 continue;
             }
+            let u = own.unscaled(s);
             let in_roi = match (&node.roi_bitmap, node.roi_bbox) {
-                (Some(mask), _) => own.ndc(s, mask.aspect).is_some_and(|p| mask.covers(p)),
+                (Some(mask), _) => u.is_some_and(|u| mask.covers(screen(u, mask.aspect, own.inv_tan))),
                 (None, Some(_)) => true,
-                (None, None) => own.ndc(s, aspect).is_some_and(|p| p.x.abs() <= 1.0 && p.y.abs() <= 1.0),
+                (None, None) => u.is_some_and(|u| {
+                    let p = screen(u, aspect, own.inv_tan);
+                    p.x.abs() <= 1.0 && p.y.abs() <= 1.0
+                }),
             };
             if !in_roi {
                 continue;
             }
             r += 1;
-            let d2 = match (through_p.ndc(s, aspect), cur) {
-                (Some(a), Some(b)) => (a - *b).length_squared(),
+            let d2 = match (u, cur) {
+                (Some(u), Some(b)) => (screen(u, aspect, self.cur.inv_tan) - *b).length_squared(),
                 _ => XI2,
             };
             sum += d2.min(XI2);
