@@ -96,8 +96,36 @@ pub fn open_graph(
     let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
     let (graph, mut problems) =
         kiosk_core::graph::InfoGraph::from_xml(&text).with_context(|| format!("{}", path.display()))?;
-    problems.extend(graph.check_files(16.0 / 9.0, &|p: &str| probe_media(dir, p)));
+    problems.extend(graph.check_files(VIEW_ASPECT, &|p: &str| probe_media(dir, p)));
+    let mut graph = graph;
+    load_roi_masks(dir, &mut graph);
     Ok(Some((graph, problems)))
+}
+
+/// Aspect ratio (width / height) of the projection the views are authored for: overlays and ROI
+/// masks are stretched over a view at it.
+pub const VIEW_ASPECT: f64 = 16.0 / 9.0;
+
+/// Reads the ROI mask each node names into its [`kiosk_core::graph::Node::roi_bitmap`] (set where
+/// luminance > 127 and not transparent, as the authoring tool paints it; downsampled, see
+/// [`RoiMask::from_fn`](kiosk_core::graph::RoiMask::from_fn)). A mask that cannot be read leaves
+/// the node with its box alone; `check_files` has already reported why.
+pub fn load_roi_masks(dir: &Path, graph: &mut kiosk_core::graph::InfoGraph) {
+    for n in &mut graph.nodes {
+        n.roi_bitmap = n.roi_mask.as_deref().and_then(|rel| {
+            let img = crate::media::resolve(dir, rel).and_then(|f| crate::media::read_image(&f)).ok()?;
+            roi_bitmap(&img)
+        });
+    }
+}
+
+/// An ROI mask image as the core's bitmap (set where luminance > 127 and alpha > 127).
+pub fn roi_bitmap(img: &image::RgbaImage) -> Option<kiosk_core::graph::RoiMask> {
+    kiosk_core::graph::RoiMask::from_fn(img.width(), img.height(), VIEW_ASPECT, |x, y| {
+        let [r, g, b, a] = img.get_pixel(x, y).0;
+        let luma = (299 * u32::from(r) + 587 * u32::from(g) + 114 * u32::from(b)) / 1000;
+        luma > 127 && a > 127
+    })
 }
 
 /// Checks one media file a graph names (see [`crate::media::resolve`]): `Ok(Some((w, h)))` for

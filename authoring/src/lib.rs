@@ -170,6 +170,7 @@ impl Project {
                 thumbnail,
                 roi_mask: None,
                 roi_bbox: None,
+                roi_bitmap: None,
             });
             Ok(id.clone())
         })
@@ -235,7 +236,8 @@ impl Project {
     }
 
     /// Sets a node's region of interest from a mask painted over its view (any size; set where
-    /// luminance > 127): saves the mask into `roi/ID.png` and computes the ROI bounding box from
+    /// luminance > 127): saves the mask into `roi/ID.png`, keeps its bitmap for the engine and
+    /// computes the ROI bounding box from
     /// the model points that project under it and are visible from the view (the first hit of
     /// a ray cast). Returns the box, or an error when no model point is under the mask.
     pub fn paint_roi(&mut self, id: &str, mask: &image::GrayImage) -> anyhow::Result<(DVec3, DVec3)> {
@@ -247,9 +249,14 @@ impl Project {
         let path = self.dir.join(&rel);
         std::fs::create_dir_all(path.parent().unwrap_or(&self.dir))?;
         mask.save(&path).with_context(|| format!("cannot write {}", path.display()))?;
+        // The bitmap the engine ranks with, as the kiosk reads it from the file.
+        let bitmap = kiosk_core::graph::RoiMask::from_fn(mask.width(), mask.height(), VIEW_ASPECT, |x, y| {
+            mask.get_pixel(x, y)[0] > 127
+        });
         self.edit(|g| {
             g.nodes[i].roi_mask = Some(rel);
             g.nodes[i].roi_bbox = Some(bbox);
+            g.nodes[i].roi_bitmap = bitmap;
             Ok(())
         })?;
         Ok(bbox)

@@ -1,12 +1,14 @@
 //! `cargo bench --bench story`: the recommendation engine's numbers (docs/performance.md).
 //!
-//! 1. One recommendation step (score every node, select) on the paper's 109-node graph and on a
-//!    10 000-node graph of the same shape; radial candidates among 1 000 views.
+//! 1. One recommendation step (score every node, select) on the paper's 109-node graph (also with
+//!    an ROI box and mask on every node) and on a 10 000-node graph of the same shape; radial
+//!    candidates among 1 000 views.
 //! 2. Speed against accuracy: the number S of sampled points in the similarity metrics against
 //!    time per step and Kendall τ between the scores and those of a 4096-sample reference
 //!    (table and `target/bench/story-tradeoff.svg`).
 
 use glam::DVec3;
+use kiosk_core::graph::RoiMask;
 use kiosk_core::recommend::{
     RadialSettings, RecSettings, Recommender, ViewContext, ViewIndex, radial_candidates,
 };
@@ -65,6 +67,31 @@ fn main() -> anyhow::Result<()> {
         let max = t.iter().copied().fold(0.0, f64::max);
         println!("| paper-shaped | {n} | {} | {:.1} | {max:.1} |", g.edges.len(), median(t));
     }
+    // The 109-node graph with a region of interest on every node, as the kiosk loads it: a box
+    // around the view's target and a mask (a disc over the middle of the view) within it.
+    let mut g = kiosk_testkit::synthetic::paper_graph(&store, 109, 7);
+    for n in &mut g.nodes {
+        let r = DVec3::splat(diagonal * 0.2);
+        n.roi_bbox = Some((n.view.target - r, n.view.target + r));
+        n.roi_bitmap = RoiMask::from_fn(320, 180, 16.0 / 9.0, |x, y| {
+            (f64::from(x) - 160.0).hypot(f64::from(y) - 90.0) <= 70.0
+        });
+    }
+    let rec = Recommender::new(&g, RecSettings::default(), 0.0);
+    let ctx = ViewContext { camera: cam, aspect: 16.0 / 9.0, samples: &s64, diagonal, moving: false };
+    let mut t = Vec::new();
+    for _ in 0..2000 {
+        let t0 = Instant::now();
+        let scores = rec.scores(&g, &ctx, 10.0);
+        std::hint::black_box(Recommender::select(&scores, &mut rng));
+        t.push(t0.elapsed().as_secs_f64() * 1e6);
+    }
+    let max = t.iter().copied().fold(0.0, f64::max);
+    println!(
+        "| paper-shaped, ROI box + mask on every node | 109 | {} | {:.1} | {max:.1} |",
+        g.edges.len(),
+        median(t)
+    );
     let g = kiosk_testkit::synthetic::paper_graph(&store, 1000, 8);
     let index = ViewIndex::new(&g);
     let mut t = Vec::new();
@@ -76,7 +103,7 @@ fn main() -> anyhow::Result<()> {
         let camera = kiosk_core::camera::Camera { eye, target: c, up: DVec3::Y, fov_y: 0.8 };
         let ctx = ViewContext { camera, aspect: 16.0 / 9.0, samples: &s64, diagonal, moving: false };
         let t0 = Instant::now();
-        let cands = radial_candidates(&g, &index, &ctx, &RadialSettings::default(), &mut |from, to| {
+        let cands = radial_candidates(&g, &index, &ctx, &RadialSettings::default(), None, &mut |from, to| {
             let d = to - from;
             let len = d.length();
             len <= 0.0 || store.ray_cast(Level::Cut(&cut), from, d, len).is_none()

@@ -138,6 +138,37 @@ fn the_radial_menu_offers_nearby_views_and_selects_by_direction() {
 }
 
 #[test]
+fn the_radial_menu_does_not_offer_the_view_on_display() {
+    let ex = exhibit();
+    let g = graph(vec![ex.orbited("left", -12.0), ex.orbited("right", 20.0), ex.orbited("near", 4.0)]);
+    // Pick the nearest view; while its overlay stays, open the menu again and let go.
+    let t = ex.run(
+        &g,
+        &Script::new()
+            .down(1, 0.5, 0.5)
+            .wait(1.0)
+            .drag(&[(1, (0.5, 0.5), (0.5, 0.3))], 0.2)
+            .wait(0.1)
+            .up(1, 0.5, 0.3)
+            .wait(3.0)
+            .down(1, 0.5, 0.5)
+            .wait(1.5)
+            .up(1, 0.5, 0.5)
+            .wait(0.5)
+            .cancel(99),
+    );
+    assert_eq!(t.summary.menu_requests, 2, "{:?}", t.summary);
+    let second = t
+        .frames
+        .iter()
+        .filter(|f| f.t > 4.0 && f.overlay.as_deref() == Some("near"))
+        .find_map(|f| f.menu.as_ref())
+        .expect("the menu opened over the displayed view");
+    assert!(!second.candidates.is_empty(), "the other views are offered");
+    assert!(!second.candidates.contains(&"near".to_string()), "{:?}", second.candidates);
+}
+
+#[test]
 fn kiosk_replay_runs_the_story_of_an_exhibit_directory() {
     let ex = exhibit();
     let g = graph(vec![ex.orbited("left", -12.0), ex.orbited("near", 4.0), ex.orbited("back", 180.0)]);
@@ -203,6 +234,9 @@ fn demo_exhibit_loads_and_plays(name: &str) {
             );
         }
         assert!(n.roi_bbox.is_some() && n.thumbnail.is_some() && n.roi_mask.is_some(), "{}", n.id);
+        // The mask is loaded for the engine (Eq. 11.3), not only named.
+        let bitmap = n.roi_bitmap.as_ref().unwrap_or_else(|| panic!("{}: ROI mask not loaded", n.id));
+        assert!(bitmap.count() > 0 && bitmap.count() < bitmap.w * bitmap.h, "{}: {bitmap:?}", n.id);
         let files = n.overlay.0.values().chain(n.narration.0.values()).chain(&n.thumbnail).chain(&n.roi_mask);
         for f in files {
             assert!(dir.join(f).is_file(), "{name}/{}: {f} missing", n.id);

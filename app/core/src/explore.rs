@@ -329,12 +329,18 @@ impl Explorer {
                     } else {
                         self.summary.menu_requests += 1;
                         let cut = &self.cut;
+                        // The view on display (or being flown to) is not offered again.
+                        let shown = self.rec.as_ref().and_then(|r| match r.state {
+                            RecState::Display { node, .. } | RecState::GoTo { node, .. } => Some(node),
+                            _ => None,
+                        });
                         let candidates = match (graph, self.view_index.as_ref()) {
                             (Some(g), Some(vi)) => radial_candidates(
                                 g,
                                 vi,
                                 &ctx,
                                 &settings.radial,
+                                shown,
                                 &mut |from: DVec3, to: DVec3| {
                                     let d = to - from;
                                     let len = d.length();

@@ -76,6 +76,81 @@ pub struct Node {
     pub roi_mask: Option<String>,
     /// Bounding box of the model points under the ROI (computed by the authoring tool).
     pub roi_bbox: Option<(DVec3, DVec3)>,
+    /// The ROI mask's pixels, downsampled: handed over by whoever loads the graph with its
+    /// files (the kiosk and the authoring tool read `roi_mask` when they open the exhibit; the
+    /// core opens no file). Not part of the XML; absent (no mask, or an unreadable one): the
+    /// ROI is the box alone.
+    pub roi_bitmap: Option<RoiMask>,
+}
+
+/// A region-of-interest mask as a small bitmap stretched over a node's view (thesis 11.3.1: "a
+/// bit-mask denoting the relevant part of the view"). Row 0 is the top of the view.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RoiMask {
+    /// Columns.
+    pub w: u32,
+    /// Rows.
+    pub h: u32,
+    /// Width / height of the view the mask is stretched over (the authored view's aspect).
+    pub aspect: f64,
+    /// One bit per cell, row-major, 64 per word.
+    pub bits: Vec<u64>,
+}
+
+impl RoiMask {
+    /// Longest side of a downsampled mask, in cells.
+    pub const MAX_SIDE: u32 = 128;
+
+    /// A mask from `w × h` pixels (row-major, top row first) where `set(x, y)` says whether a
+    /// pixel is in the region, downsampled to at most [`Self::MAX_SIDE`] cells a side: a cell
+    /// is set when any of its pixels is (thin strokes survive). `None` for an empty image or a
+    /// non-finite aspect.
+    pub fn from_fn(w: u32, h: u32, aspect: f64, set: impl Fn(u32, u32) -> bool) -> Option<Self> {
+        if w == 0 || h == 0 || !(aspect.is_finite() && aspect > 0.0) {
+            return None;
+        }
+        let scale = (f64::from(w.max(h)) / f64::from(Self::MAX_SIDE)).max(1.0);
+        let cw = ((f64::from(w) / scale).ceil() as u32).clamp(1, Self::MAX_SIDE);
+        let ch = ((f64::from(h) / scale).ceil() as u32).clamp(1, Self::MAX_SIDE);
+        let mut mask = Self { w: cw, h: ch, aspect, bits: vec![0; (cw as usize * ch as usize).div_ceil(64)] };
+        for y in 0..h {
+            let cy = (u64::from(y) * u64::from(ch) / u64::from(h)) as u32;
+            for x in 0..w {
+                if set(x, y) {
+                    let cx = (u64::from(x) * u64::from(cw) / u64::from(w)) as u32;
+                    let k = cy as usize * cw as usize + cx as usize;
+                    mask.bits[k / 64] |= 1 << (k % 64);
+                }
+            }
+        }
+        Some(mask)
+    }
+
+    /// Whether cell (x, y) is set (false outside).
+    pub fn get(&self, x: u32, y: u32) -> bool {
+        if x >= self.w || y >= self.h {
+            return false;
+        }
+        let k = y as usize * self.w as usize + x as usize;
+        self.bits.get(k / 64).is_some_and(|b| (b >> (k % 64)) & 1 == 1)
+    }
+
+    /// Whether a point at normalised device coordinates (x right, y up, [−1, 1]² on screen) of
+    /// the view falls on a set cell.
+    #[inline]
+    pub fn covers(&self, ndc: glam::DVec2) -> bool {
+        if !(ndc.x.abs() <= 1.0 && ndc.y.abs() <= 1.0) {
+            return false;
+        }
+        let x = (((ndc.x + 1.0) * 0.5 * f64::from(self.w)) as u32).min(self.w - 1);
+        let y = (((1.0 - ndc.y) * 0.5 * f64::from(self.h)) as u32).min(self.h - 1);
+        self.get(x, y)
+    }
+
+    /// Number of set cells.
+    pub fn count(&self) -> u32 {
+        self.bits.iter().map(|b| b.count_ones()).sum()
+    }
 }
 
 /// A dependency: `from` should be shown before `to`, with weight ω ∈ [0, 1].
@@ -417,6 +492,7 @@ impl InfoGraph {
                 thumbnail,
                 roi_mask,
                 roi_bbox,
+                roi_bitmap: None,
             });
         }
         let index: BTreeMap<&str, usize> =

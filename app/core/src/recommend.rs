@@ -6,9 +6,27 @@
 //! S = γ · D · R · σ, D = Π (1 − ω (1 − visⱼ)), R = min((ΔT / T_max)², 1) after a display or a
 //! proposal (1 before), σ from Eq. 11.3 for views in sight with enough ROI samples, else
 //! Eq. 11.4. Selection is proportional to the score, among visible candidates first.
+//!
+//! Eq. 11.3 as the thesis states it: the samples s_j in the region of interest of view i are
+//! those that project, through view i, onto a set pixel of the node's ROI mask
+//! ([`crate::graph::Node::roi_bitmap`], loaded by the shell); the ROI box is only the fast
+//! pre-filter (11.3.1, 11.5), and decides alone when the mask is missing or unreadable. The
+//! distances compare P V_i s and P V_cur s with the same, current, projection P: a node's own
+//! field of view serves only to place its mask.
+//!
+//! The radial menu ([`radial_candidates`], 9.7.2): views by increasing eye distance are tested
+//! (angle to the current direction ≤ 90°, line of sight) until N pass or the graph is exhausted —
+//! a dense cluster of views facing away never empties the menu; those within a mean NDC distance
+//! of 2 are ranked by the engine's similarity (Eq. 11.3 where it applies and is positive, first;
+//! then Eq. 11.4) and the best M are shown, laid out nearest at the top and clockwise by
+//! distance (9.4). The view being displayed (or flown to) is not offered. Mandatory
+//! dependencies do not hide a menu choice: the menu is the visitor's own pick among what is in
+//! front of them, and a point of interest they are looking at must be reachable even when its
+//! introduction is still unseen. Dependencies order only the engine's own proposals; a node
+//! displayed from the menu counts as visited, and its unseen predecessors stay proposable.
 
 use crate::camera::Camera;
-use crate::graph::{InfoGraph, MANDATORY};
+use crate::graph::{InfoGraph, MANDATORY, Node};
 use glam::{DVec2, DVec3};
 use rand::Rng;
 use serde::Serialize;
@@ -256,6 +274,21 @@ impl Projector {
         }
     }
 
+    /// The same view seen with another projection (`inv_tan` = 1 / tan(fov_y / 2)).
+    #[inline]
+    fn with_inv_tan(self, inv_tan: f64) -> Self {
+        Self { inv_tan, ..self }
+    }
+
+    /// The view-space x and y of `p` over its depth (NDC before the projection's scale and
+    /// aspect), `None` behind the eye.
+    #[inline]
+    fn unscaled(&self, p: DVec3) -> Option<DVec2> {
+        let d = p - self.eye;
+        let z = d.dot(self.forward);
+        (z > 0.0).then(|| DVec2::new(d.dot(self.right), d.dot(self.up)) / z)
+    }
+
     /// NDC (x, y) of `p` for a viewport of the given aspect ratio, `None` behind the eye.
     #[inline]
     pub fn ndc(&self, p: DVec3, aspect: f64) -> Option<DVec2> {
@@ -289,28 +322,42 @@ impl<'a> StepFrame<'a> {
         Self { ctx, cur, cur_ndc, t_cur }
     }
 
-    /// Eq. 11.3.
-    fn close(&self, view: &Projector, roi: Option<(DVec3, DVec3)>, min_roi: usize) -> Option<f64> {
+    /// Eq. 11.3 for a node seen through `own` (its view with its own field of view). The samples
+    /// s_j "inside the region of interest of view i" are those inside the node's ROI box (a fast
+    /// pre-filter) that project, through the node's own view, onto a set cell of its ROI mask;
+    /// without a mask the box alone decides, without either the node's frustum. The distances
+    /// compare P V_i s and P V_cur s with the same, current, projection P (the visitor's field
+    /// of view and aspect), as the equation has it.
+    fn close(&self, own: &Projector, node: &Node, min_roi: usize) -> Option<f64> {
         let k = self.ctx.samples.len();
         if k == 0 {
             return None;
         }
+        let aspect = self.ctx.aspect;
+        // One projection per sample: the node's own frame and the current P differ only in scale.
+        let screen = |u: DVec2, aspect: f64, inv_tan: f64| DVec2::new(u.x / aspect, u.y) * inv_tan;
         let (mut r, mut sum) = (0usize, 0.0);
         for (&s, cur) in self.ctx.samples.iter().zip(&self.cur_ndc) {
-            let in_roi = match roi {
-                Some((lo, hi)) => s.cmpge(lo).all() && s.cmple(hi).all(),
-                None => true,
+            if let Some((lo, hi)) = node.roi_bbox
+                && !(s.cmpge(lo).all() && s.cmple(hi).all())
+            {
+                continue;
+            }
+            let u = own.unscaled(s);
+            let in_roi = match (&node.roi_bitmap, node.roi_bbox) {
+                (Some(mask), _) => u.is_some_and(|u| mask.covers(screen(u, mask.aspect, own.inv_tan))),
+                (None, Some(_)) => true,
+                (None, None) => u.is_some_and(|u| {
+                    let p = screen(u, aspect, own.inv_tan);
+                    p.x.abs() <= 1.0 && p.y.abs() <= 1.0
+                }),
             };
             if !in_roi {
                 continue;
             }
-            let pi = view.ndc(s, self.ctx.aspect);
-            if roi.is_none() && !pi.is_some_and(|p| p.x.abs() <= 1.0 && p.y.abs() <= 1.0) {
-                continue;
-            }
             r += 1;
-            let d2 = match (pi, cur) {
-                (Some(a), Some(b)) => (a - *b).length_squared(),
+            let d2 = match (u, cur) {
+                (Some(u), Some(b)) => (screen(u, aspect, self.cur.inv_tan) - *b).length_squared(),
                 _ => XI2,
             };
             sum += d2.min(XI2);
@@ -336,15 +383,11 @@ impl<'a> StepFrame<'a> {
     }
 }
 
-/// Close similarity, Eq. 11.3, of `view` to `ctx.camera` over the samples; `None` when fewer
-/// than `min_roi` samples fall in the view's region of interest (its ROI box, or its frustum).
-pub fn similarity_close(
-    view: &Camera,
-    roi: Option<(DVec3, DVec3)>,
-    ctx: &ViewContext<'_>,
-    min_roi: usize,
-) -> Option<f64> {
-    StepFrame::new(ctx).close(&Projector::new(view), roi, min_roi)
+/// Close similarity, Eq. 11.3, of a node's view to `ctx.camera` over the samples; `None` when
+/// fewer than `min_roi` samples fall in the node's region of interest (its ROI mask within its
+/// box, its box, or its frustum: see the module documentation).
+pub fn similarity_close(node: &Node, ctx: &ViewContext<'_>, min_roi: usize) -> Option<f64> {
+    StepFrame::new(ctx).close(&Projector::new(&node.view), node, min_roi)
 }
 
 /// Far similarity, Eq. 11.4.
@@ -371,8 +414,7 @@ pub fn view_distance(view: &Camera, ctx: &ViewContext<'_>) -> f64 {
 /// The similarity of a node's view to the current one: close metric when it applies, else far.
 pub fn similarity(graph: &InfoGraph, node: usize, ctx: &ViewContext<'_>, settings: &RecSettings) -> f64 {
     let n = &graph.nodes[node];
-    similarity_close(&n.view, n.roi_bbox, ctx, settings.min_roi_samples)
-        .unwrap_or_else(|| similarity_far(&n.view, ctx))
+    similarity_close(n, ctx, settings.min_roi_samples).unwrap_or_else(|| similarity_far(&n.view, ctx))
 }
 
 /// A node's score and whether it was scored with the close metric ("visible").
@@ -493,7 +535,7 @@ impl Recommender {
         for &(_, i) in &visible {
             let n = &graph.nodes[i];
             if let Some(sigma) = frame
-                .close(&self.projectors[i], n.roi_bbox, self.settings.min_roi_samples)
+                .close(&self.projectors[i], n, self.settings.min_roi_samples)
                 .filter(|&s| s > self.settings.visible_threshold)
             {
                 out[i] = Score { score: base[i] * sigma, visible: true };
@@ -694,7 +736,7 @@ pub enum Sense {
 /// The radial point-of-interest selector (thesis 9.4, 9.7.2).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RadialSettings {
-    /// Nearest views considered (N).
+    /// Views that must pass the angle and line-of-sight tests (N), searched by distance.
     pub nearest: usize,
     /// Views presented (M).
     pub slots: usize,
@@ -702,11 +744,19 @@ pub struct RadialSettings {
     pub max_angle: f64,
     /// Largest mean NDC distance (thesis: 2).
     pub max_ndc_distance: f64,
+    /// Fewest ROI samples for ranking with the close metric (as [`RecSettings::min_roi_samples`]).
+    pub min_roi_samples: usize,
 }
 
 impl Default for RadialSettings {
     fn default() -> Self {
-        Self { nearest: 24, slots: 8, max_angle: std::f64::consts::FRAC_PI_2, max_ndc_distance: 2.0 }
+        Self {
+            nearest: 24,
+            slots: 8,
+            max_angle: std::f64::consts::FRAC_PI_2,
+            max_ndc_distance: 2.0,
+            min_roi_samples: RecSettings::default().min_roi_samples,
+        }
     }
 }
 
@@ -765,47 +815,77 @@ impl ViewIndex {
     }
 }
 
-/// Candidates for the radial menu, nearest first: the `nearest` views closest to the eye whose
-/// direction is within `max_angle` of the current one and that are in line of sight
-/// (`line_of_sight(from, to)`, a ray cast on the scene by the caller), filtered by the mean NDC
-/// distance over the samples; at most `slots`.
+/// Candidates for the radial menu (thesis 9.7.2; see the module documentation): the views
+/// nearest the eye whose direction is within `max_angle` of the current one and that are in line
+/// of sight (`line_of_sight(from, to)`, a ray cast on the scene by the caller), searched by
+/// increasing distance until `nearest` pass or the graph is exhausted, except `exclude` (the
+/// view being displayed); of those within `max_ndc_distance`, the `slots` most similar to the
+/// current view (close metric first, then far), returned nearest first.
 pub fn radial_candidates(
     graph: &InfoGraph,
     index: &ViewIndex,
     ctx: &ViewContext<'_>,
     settings: &RadialSettings,
+    exclude: Option<usize>,
     line_of_sight: &mut dyn FnMut(DVec3, DVec3) -> bool,
 ) -> Vec<usize> {
     let cam = &ctx.camera;
-    if graph.nodes.is_empty() || settings.nearest == 0 {
+    let total = graph.nodes.len();
+    if total == 0 || settings.nearest == 0 || settings.slots == 0 {
         return Vec::new();
     }
     let cos_max = settings.max_angle.cos();
-    let mut out = Vec::new();
-    for i in index.nearest(graph, cam.eye, settings.nearest) {
-        let v = &graph.nodes[i].view;
-        if v.forward().dot(cam.forward()) < cos_max {
-            continue;
+    // Search on by increasing distance until N views pass the angle and visibility tests.
+    let mut passed = Vec::with_capacity(settings.nearest);
+    let mut tested = vec![false; total];
+    let mut k = settings.nearest.min(total);
+    'search: loop {
+        for i in index.nearest(graph, cam.eye, k) {
+            if std::mem::replace(&mut tested[i], true) || Some(i) == exclude {
+                continue;
+            }
+            let v = &graph.nodes[i].view;
+            if v.forward().dot(cam.forward()) < cos_max || !line_of_sight(cam.eye, v.eye) {
+                continue;
+            }
+            passed.push(i);
+            if passed.len() == settings.nearest {
+                break 'search;
+            }
         }
-        if !line_of_sight(cam.eye, v.eye) {
-            continue;
+        if k >= total {
+            break;
         }
+        k = k.saturating_mul(2).min(total);
+    }
+    // The mean NDC distance filter, then the ranking by similarity.
+    let frame = StepFrame::new(ctx);
+    let mut ranked: Vec<(bool, f64, usize, usize)> = Vec::with_capacity(passed.len());
+    for (order, &i) in passed.iter().enumerate() {
+        let node = &graph.nodes[i];
+        let own = Projector::new(&node.view);
+        let through_p = own.with_inv_tan(frame.cur.inv_tan);
         let (mut sum, mut n) = (0.0, 0usize);
-        for &s in ctx.samples {
-            if let (Some(a), Some(b)) = (ndc2(v, s, ctx.aspect), ndc2(cam, s, ctx.aspect)) {
-                sum += (a - b).length();
+        for (&s, cur) in ctx.samples.iter().zip(&frame.cur_ndc) {
+            if let (Some(a), Some(b)) = (through_p.ndc(s, ctx.aspect), cur) {
+                sum += (a - *b).length();
                 n += 1;
             }
         }
         if n == 0 || sum / n as f64 > settings.max_ndc_distance {
             continue;
         }
-        out.push(i);
-        if out.len() == settings.slots {
-            break;
-        }
+        let close = frame.close(&own, node, settings.min_roi_samples).filter(|&s| s > 0.0);
+        let (visible, sigma) = match close {
+            Some(s) => (true, s),
+            None => (false, frame.far(&node.view)),
+        };
+        ranked.push((visible, sigma, order, i));
     }
-    out
+    ranked.sort_by(|a, b| b.0.cmp(&a.0).then(b.1.total_cmp(&a.1)).then(a.2.cmp(&b.2)));
+    ranked.truncate(settings.slots);
+    ranked.sort_by_key(|r| r.2);
+    ranked.into_iter().map(|r| r.3).collect()
 }
 
 /// The radial slot chosen by a finger direction (radians, 0 = up, clockwise) among `count`
@@ -821,7 +901,7 @@ pub fn slot_for_angle(angle: f64, count: usize) -> Option<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::graph::{Node, PerLanguage};
+    use crate::graph::{Node, PerLanguage, RoiMask};
     use rand::SeedableRng;
 
     fn graph(n: usize) -> InfoGraph {
@@ -844,6 +924,7 @@ mod tests {
                     thumbnail: None,
                     roi_mask: None,
                     roi_bbox: None,
+                    roi_bitmap: None,
                 }
             })
             .collect();
@@ -866,6 +947,190 @@ mod tests {
             let want: Vec<usize> = all.iter().take(10).map(|x| x.1).collect();
             assert_eq!(got, want);
         }
+    }
+
+    fn node_at(id: &str, eye: DVec3, target: DVec3, fov_y: f64) -> Node {
+        let mut view = Camera { eye, target, up: DVec3::Y, fov_y };
+        view.up = crate::camera::orthonormal_up(view.forward(), DVec3::Y, DVec3::Z);
+        Node {
+            id: id.into(),
+            view,
+            importance: 1.0,
+            title: PerLanguage::default(),
+            text: PerLanguage::default(),
+            overlay: PerLanguage::default(),
+            narration: PerLanguage::default(),
+            thumbnail: None,
+            roi_mask: None,
+            roi_bbox: None,
+            roi_bitmap: None,
+        }
+    }
+
+    fn graph_of(nodes: Vec<Node>) -> InfoGraph {
+        InfoGraph { default_lang: "en".into(), nodes, edges: vec![] }
+    }
+
+    /// The visitor's view: from (0, 0, 5) toward the origin, fov 0.8.
+    fn front() -> Camera {
+        Camera { eye: DVec3::new(0.0, 0.0, 5.0), target: DVec3::ZERO, up: DVec3::Y, fov_y: 0.8 }
+    }
+
+    /// 200 samples on the plane z = 0 spread over the whole 16:9 view of [`front`].
+    fn wall() -> Vec<DVec3> {
+        (0..20)
+            .flat_map(|i| {
+                (0..10).map(move |j| {
+                    DVec3::new(-3.5 + 0.35 * (f64::from(i) + 0.5), -2.0 + 0.4 * (f64::from(j) + 0.5), 0.0)
+                })
+            })
+            .collect()
+    }
+
+    fn ctx(camera: Camera, samples: &[DVec3]) -> ViewContext<'_> {
+        ViewContext { camera, aspect: 16.0 / 9.0, samples, diagonal: 10.0, moving: false }
+    }
+
+    fn everything() -> Option<(DVec3, DVec3)> {
+        Some((DVec3::splat(-10.0), DVec3::splat(10.0)))
+    }
+
+    #[test]
+    fn eq_11_3_counts_only_the_samples_that_fall_on_the_roi_mask() {
+        let samples = wall();
+        let c = ctx(front(), &samples);
+        let s = RecSettings::default();
+        let mut n = node_at("a", front().eye, DVec3::ZERO, 0.8);
+        n.roi_bbox = everything();
+        // The box alone: every sample is in the ROI and projects where it does now.
+        let sigma = similarity(&graph_of(vec![n.clone()]), 0, &c, &s);
+        assert!((sigma - 1.0).abs() < 1e-9, "{sigma}");
+        // The mask covers the left half of the view: the right half's samples are outside the
+        // ROI and count as ξ² (Eq. 11.3), whatever the box says.
+        n.roi_bitmap = RoiMask::from_fn(16, 9, 16.0 / 9.0, |x, _| x < 8);
+        let sigma = similarity(&graph_of(vec![n.clone()]), 0, &c, &s);
+        assert!((sigma - 0.5).abs() < 1e-9, "{sigma}");
+        // The box stays a pre-filter: a box over the right half and a mask over the left half
+        // leave no sample in the ROI.
+        n.roi_bbox = Some((DVec3::new(0.0, -10.0, -10.0), DVec3::splat(10.0)));
+        assert_eq!(similarity_close(&n, &c, 1), None);
+        // A mask over a corner no sample falls on: too few ROI samples for the close metric.
+        n.roi_bbox = everything();
+        n.roi_bitmap = RoiMask::from_fn(32, 18, 16.0 / 9.0, |x, y| x == 0 && y == 0);
+        assert_eq!(similarity_close(&n, &c, 1), None);
+    }
+
+    #[test]
+    fn eq_11_3_projects_both_views_with_the_current_projection() {
+        let samples = wall();
+        let c = ctx(front(), &samples);
+        // The visitor's eye and direction, authored with a narrower field of view: with the same
+        // P for both (Eq. 11.3), every ROI sample projects exactly where it does now.
+        let mut n = node_at("zoomed", front().eye, DVec3::ZERO, 0.4);
+        n.roi_bbox = everything();
+        let sigma = similarity(&graph_of(vec![n]), 0, &c, &RecSettings::default());
+        assert!(sigma > 1.0 - 1e-9, "{sigma}");
+    }
+
+    #[test]
+    fn a_roi_mask_is_downsampled_keeping_thin_strokes() {
+        let m = RoiMask::from_fn(1280, 720, 16.0 / 9.0, |x, y| x == 700 || y == 0).expect("a mask");
+        assert_eq!((m.w, m.h), (128, 72));
+        assert!(m.get(70, 40) && m.get(3, 0) && !m.get(3, 1) && !m.get(128, 0));
+        assert_eq!(m.count(), 128 + 71);
+        assert!(m.covers(DVec2::new(0.0938, -0.5)) && !m.covers(DVec2::new(0.5, -0.5)));
+        assert!(!m.covers(DVec2::new(1.5, 0.99)), "off the view");
+        assert_eq!(RoiMask::from_fn(0, 10, 1.0, |_, _| true), None);
+    }
+
+    fn radial(g: &InfoGraph, c: &ViewContext<'_>, exclude: Option<usize>) -> Vec<usize> {
+        radial_candidates(g, &ViewIndex::new(g), c, &RadialSettings::default(), exclude, &mut |_, _| true)
+    }
+
+    #[test]
+    fn the_radial_menu_searches_past_a_dense_cluster_of_views_facing_away() {
+        let samples = wall();
+        let c = ctx(front(), &samples);
+        // 30 views right at the visitor's eye, looking back (angle > 90°)…
+        let mut nodes: Vec<Node> = (0..30)
+            .map(|k| {
+                let eye = front().eye + DVec3::new(0.01 * f64::from(k % 6), 0.01 * f64::from(k / 6), 0.0);
+                node_at(&format!("back{k}"), eye, eye + DVec3::Z, 0.8)
+            })
+            .collect();
+        // …and three views a bit farther that look where the visitor looks.
+        for (k, x) in [-0.5, 0.0, 0.5].into_iter().enumerate() {
+            nodes.push(node_at(
+                &format!("good{k}"),
+                DVec3::new(x, 0.0, 6.0 + 0.1 * k as f64),
+                DVec3::ZERO,
+                0.8,
+            ));
+        }
+        let g = graph_of(nodes);
+        assert_eq!(radial(&g, &c, None), vec![31, 30, 32], "nearest first");
+    }
+
+    #[test]
+    fn the_radial_menu_offers_the_most_similar_views_not_just_the_nearest() {
+        let samples = wall();
+        let c = ctx(front(), &samples);
+        // Eight views close to the eye looking aside, eight farther ones looking at the same
+        // place: all within 90° and a mean NDC distance of 2.
+        let mut nodes = Vec::new();
+        for k in 0..8 {
+            let x = 0.1 * f64::from(k) - 0.35;
+            nodes.push(node_at(
+                &format!("aside{k}"),
+                DVec3::new(x, 0.25, 5.0),
+                DVec3::new(2.0, 1.0, 0.0),
+                0.8,
+            ));
+        }
+        for k in 0..8 {
+            let x = 0.1 * f64::from(k) - 0.35;
+            nodes.push(node_at(&format!("same{k}"), DVec3::new(x, 0.0, 6.0), DVec3::new(x, 0.0, 0.0), 0.8));
+        }
+        let g = graph_of(nodes);
+        let got = radial(&g, &c, None);
+        let mut set = got.clone();
+        set.sort_unstable();
+        assert_eq!(set, (8..16).collect::<Vec<_>>(), "{got:?}");
+        let dist = |i: &usize| (g.nodes[*i].view.eye - front().eye).length();
+        assert!(got.windows(2).all(|w| dist(&w[0]) <= dist(&w[1])), "laid out nearest first: {got:?}");
+    }
+
+    #[test]
+    fn the_radial_menu_does_not_offer_the_view_on_display() {
+        let samples = wall();
+        let c = ctx(front(), &samples);
+        let nodes = vec![
+            node_at("shown", front().eye, DVec3::ZERO, 0.8),
+            node_at("left", DVec3::new(-0.5, 0.0, 5.5), DVec3::ZERO, 0.8),
+            node_at("right", DVec3::new(0.6, 0.0, 5.5), DVec3::ZERO, 0.8),
+        ];
+        let g = graph_of(nodes);
+        assert_eq!(radial(&g, &c, None), vec![0, 1, 2]);
+        assert_eq!(radial(&g, &c, Some(0)), vec![1, 2]);
+    }
+
+    #[test]
+    fn a_node_whose_mandatory_predecessor_is_unseen_is_still_offered_and_shown() {
+        let samples = wall();
+        let c = ctx(front(), &samples);
+        let mut g = graph_of(vec![
+            node_at("intro", DVec3::new(0.0, 0.0, -5.0), DVec3::ZERO, 0.8),
+            node_at("detail", DVec3::new(0.3, 0.0, 5.5), DVec3::ZERO, 0.8),
+        ]);
+        g.edges.push(crate::graph::Edge { from: 0, to: 1, weight: MANDATORY });
+        let mut rec = Recommender::new(&g, RecSettings::default(), 0.0);
+        assert!(!rec.feasible(1));
+        assert_eq!(radial(&g, &c, None), vec![1], "the intro is behind the visitor");
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
+        rec.step(&g, &c, RecEvent::MenuSelect(1), 0.0, &mut rng);
+        rec.step(&g, &c, RecEvent::Tick, 10.0, &mut rng);
+        assert!(matches!(rec.state, RecState::Display { node: 1, .. }), "{:?}", rec.state);
+        assert!(rec.stats[1].visited && !rec.stats[0].visited);
     }
 
     #[test]

@@ -27,6 +27,7 @@ pub fn node(id: &str, eye: DVec3, target: DVec3, importance: f64) -> Node {
         thumbnail: None,
         roi_mask: None,
         roi_bbox: None,
+        roi_bitmap: None,
     }
 }
 
