@@ -215,6 +215,7 @@ mod tests {
                     thumbnail: None,
                     roi_mask: None,
                     roi_bbox: None,
+                    roi_bitmap: None,
                 }
             })
             .collect();

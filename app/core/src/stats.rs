@@ -416,6 +416,7 @@ mod tests {
                     thumbnail: None,
                     roi_mask: None,
                     roi_bbox: None,
+                    roi_bitmap: None,
                 }
             })
             .collect();
