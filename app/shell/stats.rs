@@ -190,7 +190,7 @@ mod tests {
     use super::*;
     use glam::DVec3;
     use kiosk_core::camera::Camera;
-    use kiosk_core::graph::{InfoGraph, Node, PerLanguage};
+    use kiosk_core::graph::{InfoGraph, Node};
     use kiosk_core::recommend::{RecEvent, RecSettings, RecState, Recommender, ViewContext};
     use kiosk_core::stats::{ModelVisit, Observer, PopularitySettings, VisitEnd, adjusted_importance};
     use rand::{Rng, SeedableRng};
@@ -200,22 +200,16 @@ mod tests {
             .map(|i| {
                 let a = i as f64 * 0.7;
                 Node {
-                    id: format!("node-{i}"),
-                    view: Camera {
-                        eye: DVec3::new(a.cos() * 3.0, 0.1 * a, a.sin() * 3.0),
-                        target: DVec3::ZERO,
-                        up: DVec3::Y,
-                        fov_y: 0.8,
-                    },
                     importance: 0.6,
-                    title: PerLanguage::default(),
-                    text: PerLanguage::default(),
-                    overlay: PerLanguage::default(),
-                    narration: PerLanguage::default(),
-                    thumbnail: None,
-                    roi_mask: None,
-                    roi_bbox: None,
-                    roi_bitmap: None,
+                    ..Node::new(
+                        format!("node-{i}"),
+                        Camera {
+                            eye: DVec3::new(a.cos() * 3.0, 0.1 * a, a.sin() * 3.0),
+                            target: DVec3::ZERO,
+                            up: DVec3::Y,
+                            fov_y: 0.8,
+                        },
+                    )
                 }
             })
             .collect();

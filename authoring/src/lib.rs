@@ -159,19 +159,7 @@ impl Project {
         self.edit(|g| {
             let mut title = PerLanguage::default();
             title.0.insert(lang, id.clone());
-            g.nodes.push(Node {
-                id: id.clone(),
-                view: camera,
-                importance: 1.0,
-                title,
-                text: PerLanguage::default(),
-                overlay: PerLanguage::default(),
-                narration: PerLanguage::default(),
-                thumbnail,
-                roi_mask: None,
-                roi_bbox: None,
-                roi_bitmap: None,
-            });
+            g.nodes.push(Node { title, thumbnail, ..Node::new(id.clone(), camera) });
             Ok(id.clone())
         })
     }

@@ -179,6 +179,25 @@ pub struct InfoGraph {
 /// existing file, `Err(reason)` when unusable. Supplied by the shell (the core opens no file).
 pub type FileProbe<'a> = dyn Fn(&str) -> Result<Option<(u32, u32)>, String> + 'a;
 
+impl Node {
+    /// A node with a view and nothing else: importance 1, no texts, media or region of interest.
+    pub fn new(id: impl Into<String>, view: Camera) -> Self {
+        Self {
+            id: id.into(),
+            view,
+            importance: 1.0,
+            title: PerLanguage::default(),
+            text: PerLanguage::default(),
+            overlay: PerLanguage::default(),
+            narration: PerLanguage::default(),
+            thumbnail: None,
+            roi_mask: None,
+            roi_bbox: None,
+            roi_bitmap: None,
+        }
+    }
+}
+
 /// A problem found while loading or validating, naming the node when there is one.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub struct Problem {

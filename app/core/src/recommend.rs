@@ -901,7 +901,7 @@ pub fn slot_for_angle(angle: f64, count: usize) -> Option<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::graph::{Node, PerLanguage, RoiMask};
+    use crate::graph::{Node, RoiMask};
     use rand::SeedableRng;
 
     fn graph(n: usize) -> InfoGraph {
@@ -913,19 +913,10 @@ mod tests {
                     r.random_range(-5.0..5.0),
                     r.random_range(-5.0..5.0),
                 ) + 1e7;
-                Node {
-                    id: format!("v{i}"),
-                    view: Camera { eye, target: DVec3::splat(1e7), up: DVec3::Y, fov_y: 0.8 },
-                    importance: 1.0,
-                    title: PerLanguage::default(),
-                    text: PerLanguage::default(),
-                    overlay: PerLanguage::default(),
-                    narration: PerLanguage::default(),
-                    thumbnail: None,
-                    roi_mask: None,
-                    roi_bbox: None,
-                    roi_bitmap: None,
-                }
+                Node::new(
+                    format!("v{i}"),
+                    Camera { eye, target: DVec3::splat(1e7), up: DVec3::Y, fov_y: 0.8 },
+                )
             })
             .collect();
         InfoGraph { default_lang: "en".into(), nodes, edges: vec![] }
@@ -952,19 +943,7 @@ mod tests {
     fn node_at(id: &str, eye: DVec3, target: DVec3, fov_y: f64) -> Node {
         let mut view = Camera { eye, target, up: DVec3::Y, fov_y };
         view.up = crate::camera::orthonormal_up(view.forward(), DVec3::Y, DVec3::Z);
-        Node {
-            id: id.into(),
-            view,
-            importance: 1.0,
-            title: PerLanguage::default(),
-            text: PerLanguage::default(),
-            overlay: PerLanguage::default(),
-            narration: PerLanguage::default(),
-            thumbnail: None,
-            roi_mask: None,
-            roi_bbox: None,
-            roi_bitmap: None,
-        }
+        Node::new(id, view)
     }
 
     fn graph_of(nodes: Vec<Node>) -> InfoGraph {

@@ -390,7 +390,7 @@ impl Observer {
 mod tests {
     use super::*;
     use crate::camera::Camera;
-    use crate::graph::{Edge, MANDATORY, Node, PerLanguage};
+    use crate::graph::{Edge, MANDATORY, Node};
     use crate::recommend::{RecEvent, RecSettings, Recommender, ViewContext};
     use glam::DVec3;
     use rand::SeedableRng;
@@ -401,22 +401,16 @@ mod tests {
             .map(|i| {
                 let a = i as f64;
                 Node {
-                    id: format!("n{i}"),
-                    view: Camera {
-                        eye: DVec3::new(a.cos() * 3.0, 0.2 * a, a.sin() * 3.0),
-                        target: DVec3::ZERO,
-                        up: DVec3::Y,
-                        fov_y: 0.8,
-                    },
                     importance: 0.5,
-                    title: PerLanguage::default(),
-                    text: PerLanguage::default(),
-                    overlay: PerLanguage::default(),
-                    narration: PerLanguage::default(),
-                    thumbnail: None,
-                    roi_mask: None,
-                    roi_bbox: None,
-                    roi_bitmap: None,
+                    ..Node::new(
+                        format!("n{i}"),
+                        Camera {
+                            eye: DVec3::new(a.cos() * 3.0, 0.2 * a, a.sin() * 3.0),
+                            target: DVec3::ZERO,
+                            up: DVec3::Y,
+                            fov_y: 0.8,
+                        },
+                    )
                 }
             })
             .collect();

@@ -16,19 +16,7 @@ pub fn node(id: &str, eye: DVec3, target: DVec3, importance: f64) -> Node {
     text.0.insert("en".into(), "A short text.".into());
     let mut view = Camera { eye, target, up: DVec3::Y, fov_y: 0.8 };
     view.up = orthonormal_up(view.forward(), DVec3::Y, DVec3::Z);
-    Node {
-        id: id.into(),
-        view,
-        importance,
-        title,
-        text,
-        overlay: PerLanguage::default(),
-        narration: PerLanguage::default(),
-        thumbnail: None,
-        roi_mask: None,
-        roi_bbox: None,
-        roi_bitmap: None,
-    }
+    Node { importance, title, text, ..Node::new(id, view) }
 }
 
 /// A graph of the paper's shape with `n` nodes (109 in the paper): a 5-level DAG with
