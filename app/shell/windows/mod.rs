@@ -8,6 +8,7 @@
 pub mod audio;
 pub mod config;
 mod draw;
+mod drive;
 mod paint;
 mod surface;
 
@@ -200,14 +201,11 @@ struct Running {
     sim_t: f64,
     /// Frames stepped.
     steps: u64,
-    /// Live input waiting for its step.
-    queue: Vec<TouchEvent>,
-    /// Session playback: next event, and the time offset of the current loop.
-    next_event: usize,
-    loop_offset: f64,
-    screenshots: Vec<f64>,
+    /// Live touches and the recorded session.
+    input: drive::Input,
+    /// The trace, screenshots and soak reports.
+    probes: drive::Probes,
     record: Option<std::io::BufWriter<std::fs::File>>,
-    trace: Option<std::io::BufWriter<std::fs::File>>,
     cursor: (f64, f64),
     mouse_down: bool,
     /// Whether Ctrl is held (for Ctrl+Q).
@@ -215,7 +213,6 @@ struct Running {
     gallery_cut: Option<(usize, Cut)>,
     render_settings: RenderSettings,
     reported: HashSet<String>,
-    rss_warm: Option<u64>,
     /// Frames rendered (both windows).
     rendered: u64,
     /// The last frame's submission, waited for before the next frame.
@@ -225,11 +222,6 @@ struct Running {
     /// Unix time of kiosk time 0, and the clock's speed (for the visits' wall times).
     wall_origin: f64,
     speed: f64,
-}
-
-fn rss_kb() -> Option<u64> {
-    let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    s.lines().find_map(|l| l.strip_prefix("VmRSS:")).and_then(|v| v.split_whitespace().next()?.parse().ok())
 }
 
 impl App {
@@ -344,8 +336,9 @@ impl App {
             std::fs::create_dir_all(&self.opts.screenshot_dir)
                 .with_context(|| format!("cannot create {}", self.opts.screenshot_dir.display()))?;
         }
-        let mut screenshots = self.opts.screenshot_at.clone();
-        screenshots.sort_by(f64::total_cmp);
+        let input = drive::Input::new(self.opts.session.clone(), self.opts.run_for.is_some());
+        let soak = self.opts.run_for.map(|_| self.opts.warmup);
+        let probes = drive::Probes::new(trace, self.opts.screenshot_at.clone(), soak);
         gpu.check()?;
         Ok(Running {
             gpu,
@@ -362,19 +355,15 @@ impl App {
             start: Instant::now(),
             sim_t: 0.0,
             steps: 0,
-            queue: Vec::new(),
-            next_event: 0,
-            loop_offset: 0.0,
-            screenshots,
+            input,
+            probes,
             record,
-            trace,
             cursor: (0.5, 0.5),
             mouse_down: false,
             ctrl: false,
             gallery_cut: None,
             render_settings: RenderSettings::default(),
             reported: HashSet::new(),
-            rss_warm: None,
             rendered: 0,
             in_flight: None,
             state_dir,
@@ -502,51 +491,21 @@ impl Running {
                 tracing::error!("cannot write the session record; recording stops");
             }
         }
-        self.queue.push(e);
+        self.input.push(e);
     }
 
     /// Steps the core up to the clock, renders, and takes due screenshots. `false` = done.
     fn tick(&mut self, opts: &RunOptions, exhibits: &[Exhibit]) -> anyhow::Result<bool> {
         let dt = 1.0 / self.kiosk.settings.explore.fps;
         let now = self.clock(opts.speed);
-        let end = opts.session.as_ref().map(|s| match opts.run_for {
-            Some(r) => r,
-            None => s.duration() + 1.0,
-        });
+        let end = self.input.end(opts.run_for);
         let models: Vec<ModelRef<'_, memmap2::Mmap>> =
             exhibits.iter().map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref() }).collect();
         let mut stepped = false;
         while self.sim_t + dt <= now {
             let t = self.steps as f64 * dt;
-            if let Some(session) = &opts.session {
-                loop {
-                    if self.next_event >= session.events.len() {
-                        if opts.run_for.is_some() && t >= self.loop_offset + session.duration() + 2.0 {
-                            // Soak: the next visitor arrives.
-                            self.loop_offset = t;
-                            self.next_event = 0;
-                            continue;
-                        }
-                        break;
-                    }
-                    let e = session.events[self.next_event];
-                    if e.t + self.loop_offset > t + 1e-9 {
-                        break;
-                    }
-                    self.kiosk.touch(&TouchEvent { t: e.t + self.loop_offset, ..e });
-                    self.next_event += 1;
-                }
-            }
-            let mut live = std::mem::take(&mut self.queue);
-            live.retain(|e| {
-                if e.t <= t + 1e-9 {
-                    self.kiosk.touch(&TouchEvent { t: e.t.min(t), ..*e });
-                    false
-                } else {
-                    true
-                }
-            });
-            self.queue = live;
+            let kiosk = &mut self.kiosk;
+            self.input.due(t, &mut |e| kiosk.touch(e));
             let before = self.kiosk.mode();
             let frame = self.kiosk.step(&models, t);
             if before != Mode::Gallery
@@ -564,21 +523,11 @@ impl Running {
                 self.effect(fx, exhibits);
             }
             self.persist(exhibits, false);
-            if let Some(w) = self.trace.as_mut() {
-                writeln!(w, "{}", serde_json::to_string(&frame).unwrap_or_default())?;
-            }
             self.sim_t = t;
             self.steps += 1;
             stepped = true;
-            if opts.run_for.is_some() && self.steps.is_multiple_of((300.0 / dt).round() as u64) {
-                println!("soak: t = {t:.0} s, RSS {} kB", rss_kb().unwrap_or(0));
-            }
-            if self.rss_warm.is_none() && t >= opts.warmup && opts.run_for.is_some() {
-                self.rss_warm = rss_kb();
-                tracing::info!("soak: RSS after warm-up {} kB", self.rss_warm.unwrap_or(0));
-            }
-            if self.screenshots.first().is_some_and(|&at| t + 1e-9 >= at) {
-                let at = self.screenshots.remove(0);
+            self.probes.stepped(&frame, t, self.steps, dt)?;
+            if let Some(at) = self.probes.screenshot_due(t) {
                 self.render(exhibits, t)?;
                 self.capture(&opts.screenshot_dir, at)?;
             }
@@ -592,22 +541,7 @@ impl Running {
         if let Some(e) = end
             && self.sim_t >= e
         {
-            if !self.screenshots.is_empty() {
-                tracing::warn!("screenshots after the session's end were not taken: {:?}", self.screenshots);
-            }
-            if let (Some(warm), Some(end)) = (self.rss_warm, rss_kb()) {
-                let change = 100.0 * (end as f64 - warm as f64) / warm.max(1) as f64;
-                println!(
-                    "soak: {:.0} s of kiosk time in {:.0} s, {} steps, {} frames rendered, RSS after warm-up {warm} kB, at the end {end} kB ({change:+.1} %)",
-                    self.sim_t,
-                    self.start.elapsed().as_secs_f64(),
-                    self.steps,
-                    self.rendered
-                );
-            }
-            if let Some(w) = self.trace.as_mut() {
-                w.flush()?;
-            }
+            self.probes.finish(self.sim_t, self.start.elapsed().as_secs_f64(), self.steps, self.rendered)?;
             return Ok(false);
         }
         Ok(true)

@@ -1,0 +1,149 @@
+//! What drives the kiosk's 60 Hz loop and what watches it, kept apart from the windows:
+//! - [`Input`]: where touches come from — the live windows (queued until their step) and, with
+//!   `--session`, a recorded session played at its own timing (over and over for a soak run,
+//!   each new visitor 2 s after the last one's final event).
+//! - [`Probes`]: what the loop reports — the trace (`--trace`, one JSON line per step), the
+//!   screenshots due (`--screenshot-at`) and a soak run's memory reports (`--run-for`).
+
+use kiosk_core::gesture::TouchEvent;
+use kiosk_core::session::Session;
+use std::io::Write;
+
+/// Seconds between the end of a replayed visit and the next one in a soak run.
+const NEXT_VISITOR_SECS: f64 = 2.0;
+
+/// The touches of the live windows and of a recorded session, handed out at their step.
+pub(super) struct Input {
+    live: Vec<TouchEvent>,
+    session: Option<Session>,
+    next: usize,
+    offset: f64,
+    repeat: bool,
+}
+
+impl Input {
+    /// Live input, plus `session` played from kiosk time 0 (again and again when `repeat`).
+    pub(super) fn new(session: Option<Session>, repeat: bool) -> Self {
+        Self { live: Vec::new(), session, next: 0, offset: 0.0, repeat }
+    }
+
+    /// Queues a live touch for the step at or after its time.
+    pub(super) fn push(&mut self, e: TouchEvent) {
+        self.live.push(e);
+    }
+
+    /// Kiosk time at which a session run is over (`run_for` for a soak run), `None` when live.
+    pub(super) fn end(&self, run_for: Option<f64>) -> Option<f64> {
+        self.session.as_ref().map(|s| run_for.unwrap_or(s.duration() + 1.0))
+    }
+
+    /// Hands `feed` every touch due at kiosk time `t`, the session's first, in order; a live
+    /// touch stamped after the step's time waits for its step.
+    pub(super) fn due(&mut self, t: f64, feed: &mut dyn FnMut(&TouchEvent)) {
+        if let Some(session) = &self.session {
+            loop {
+                if self.next >= session.events.len() {
+                    if self.repeat && t >= self.offset + session.duration() + NEXT_VISITOR_SECS {
+                        self.offset = t;
+                        self.next = 0;
+                        continue;
+                    }
+                    break;
+                }
+                let e = session.events[self.next];
+                if e.t + self.offset > t + 1e-9 {
+                    break;
+                }
+                feed(&TouchEvent { t: e.t + self.offset, ..e });
+                self.next += 1;
+            }
+        }
+        self.live.retain(|e| {
+            if e.t <= t + 1e-9 {
+                feed(&TouchEvent { t: e.t.min(t), ..*e });
+                false
+            } else {
+                true
+            }
+        });
+    }
+}
+
+/// The trace, the screenshots due and a soak run's memory reports.
+pub(super) struct Probes {
+    trace: Option<std::io::BufWriter<std::fs::File>>,
+    /// Kiosk times of the screenshots still to take, in order.
+    screenshots: Vec<f64>,
+    /// A soak run: kiosk time after which memory is the reference, and that reference.
+    soak: Option<(f64, Option<u64>)>,
+}
+
+impl Probes {
+    pub(super) fn new(
+        trace: Option<std::io::BufWriter<std::fs::File>>,
+        mut screenshots: Vec<f64>,
+        soak_warmup: Option<f64>,
+    ) -> Self {
+        screenshots.sort_by(f64::total_cmp);
+        Self { trace, screenshots, soak: soak_warmup.map(|w| (w, None)) }
+    }
+
+    /// After the step at `t` (`steps` made, `dt` apart): its trace line, and in a soak run the
+    /// memory every 300 s of kiosk time and once after the warm-up.
+    pub(super) fn stepped(
+        &mut self,
+        frame: &impl serde::Serialize,
+        t: f64,
+        steps: u64,
+        dt: f64,
+    ) -> std::io::Result<()> {
+        if let Some(w) = self.trace.as_mut() {
+            writeln!(w, "{}", serde_json::to_string(frame).unwrap_or_default())?;
+        }
+        if let Some((warmup, warm)) = &mut self.soak {
+            if steps.is_multiple_of((300.0 / dt).round() as u64) {
+                println!("soak: t = {t:.0} s, RSS {} kB", rss_kb().unwrap_or(0));
+            }
+            if warm.is_none() && t >= *warmup {
+                *warm = rss_kb();
+                tracing::info!("soak: RSS after warm-up {} kB", warm.unwrap_or(0));
+            }
+        }
+        Ok(())
+    }
+
+    /// The screenshot due at `t`, if any (taken once).
+    pub(super) fn screenshot_due(&mut self, t: f64) -> Option<f64> {
+        self.screenshots.first().is_some_and(|&at| t + 1e-9 >= at).then(|| self.screenshots.remove(0))
+    }
+
+    /// At the end of a session run: what was not taken, the soak's memory change, the trace
+    /// flushed.
+    pub(super) fn finish(
+        &mut self,
+        sim_t: f64,
+        wall_secs: f64,
+        steps: u64,
+        rendered: u64,
+    ) -> std::io::Result<()> {
+        if !self.screenshots.is_empty() {
+            tracing::warn!("screenshots after the session's end were not taken: {:?}", self.screenshots);
+        }
+        if let (Some((_, Some(warm))), Some(end)) = (self.soak, rss_kb()) {
+            let change = 100.0 * (end as f64 - warm as f64) / warm.max(1) as f64;
+            println!(
+                "soak: {sim_t:.0} s of kiosk time in {wall_secs:.0} s, {steps} steps, {rendered} frames rendered, RSS after warm-up {warm} kB, at the end {end} kB ({change:+.1} %)"
+            );
+        }
+        match self.trace.as_mut() {
+            Some(w) => w.flush(),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The process's resident memory (Linux), in kB.
+pub(super) fn rss_kb() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    s.lines().find_map(|l| l.strip_prefix("VmRSS:")).and_then(|v| v.split_whitespace().next()?.parse().ok())
+}
