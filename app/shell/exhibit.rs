@@ -84,6 +84,34 @@ fn cache_name(file: &Path, options: &ImportOptions, revision: u32) -> anyhow::Re
     Ok(format!("{stem}-{hash:08x}.kstore"))
 }
 
+/// The up axis of an exhibit's model, from `exhibit.toml` beside it (`up = "z"`; one of `x`, `y`,
+/// `z`, `-x`, `-y`, `-z`); +Y when there is no such file or key. An invalid file is an error
+/// naming it and the key.
+pub fn model_up(dir: &Path) -> anyhow::Result<glam::DVec3> {
+    let path = dir.join("exhibit.toml");
+    let text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(glam::DVec3::Y),
+        Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
+    };
+    #[derive(serde::Deserialize)]
+    #[serde(deny_unknown_fields)]
+    struct ExhibitFile {
+        up: Option<String>,
+    }
+    let file: ExhibitFile = toml::from_str(&text).with_context(|| format!("{}", path.display()))?;
+    let axis = match file.up.as_deref().map(str::trim) {
+        None | Some("y") => glam::DVec3::Y,
+        Some("x") => glam::DVec3::X,
+        Some("z") => glam::DVec3::Z,
+        Some("-x") => glam::DVec3::NEG_X,
+        Some("-y") => glam::DVec3::NEG_Y,
+        Some("-z") => glam::DVec3::NEG_Z,
+        Some(other) => anyhow::bail!("{}: up = {other:?}: must be x, y, z, -x, -y or -z", path.display()),
+    };
+    Ok(axis)
+}
+
 /// Reads an exhibit's information graph (`graph.xml`), if it has one. Problems are returned
 /// alongside (the kiosk logs them and shows the rest); an unreadable graph is an error.
 pub fn open_graph(
@@ -151,6 +179,20 @@ pub fn probe_media(dir: &Path, rel: &str) -> Result<Option<(u32, u32)>, String> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_exhibit_states_its_models_up_axis() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        assert_eq!(model_up(dir.path()).expect("no file"), glam::DVec3::Y);
+        std::fs::write(dir.path().join("exhibit.toml"), "up = \"z\"\n").expect("write");
+        assert_eq!(model_up(dir.path()).expect("z"), glam::DVec3::Z);
+        std::fs::write(dir.path().join("exhibit.toml"), "up = \"sideways\"\n").expect("write");
+        let e = model_up(dir.path()).expect_err("bad axis").to_string();
+        assert!(e.contains("exhibit.toml") && e.contains("sideways"), "{e}");
+        std::fs::write(dir.path().join("exhibit.toml"), "upp = \"z\"\n").expect("write");
+        let e = format!("{:#}", model_up(dir.path()).expect_err("unknown key"));
+        assert!(e.contains("exhibit.toml") && e.contains("upp"), "{e}");
+    }
 
     #[test]
     fn a_cached_store_is_not_reused_by_other_settings_or_another_builder() {

@@ -265,7 +265,9 @@ fn main() -> anyhow::Result<()> {
                     let i = graph.index_of(&id).with_context(|| format!("no node '{id}' in the graph"))?;
                     graph.nodes[i].view
                 }
-                (None, None) => kiosk_core::replay::initial_camera(&store, 0.8, glam::DVec3::Y),
+                (None, None) => {
+                    kiosk_core::replay::initial_camera(&store, 0.8, kiosk::exhibit::model_up(&exhibit)?)
+                }
             };
             let (gpu, mut renderer) = kiosk::snapshot::offscreen()?;
             gpu.check_size(size).with_context(|| format!("--size {}x{}", size.0, size.1))?;
@@ -312,6 +314,7 @@ fn main() -> anyhow::Result<()> {
             let settings = kiosk_core::replay::ExploreSettings {
                 controller: controller.parse().map_err(anyhow::Error::msg)?,
                 seed: seed.or(parsed.header.as_ref().and_then(|h| h.seed)).unwrap_or(0),
+                up: kiosk::exhibit::model_up(&exhibit)?,
                 ..Default::default()
             };
             let graph = match kiosk::exhibit::open_graph(&exhibit) {

@@ -37,7 +37,7 @@ pub struct SessionPreview {
 /// Replays a kiosk session (recorded with `kiosk --record`) with this model alone in the gallery.
 pub fn replay_session(store: &MappedStore, graph: &InfoGraph, session: &Session) -> SessionPreview {
     let settings = KioskSettings::default();
-    let models = [ModelRef { store, graph: Some(graph) }];
+    let models = [ModelRef { store, graph: Some(graph), up: settings.explore.up }];
     let frames = run_session(&models, session, &settings, 1.0);
     let dt = 1.0 / settings.explore.fps;
     let mut displayed: Vec<String> = Vec::new();

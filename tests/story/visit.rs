@@ -29,8 +29,11 @@ fn demo() -> Demo {
 
 impl Demo {
     fn run(&self, script: &Script, settings: &KioskSettings, extra: f64) -> Vec<KioskFrame> {
-        let refs: Vec<ModelRef<'_, memmap2::Mmap>> =
-            self.models.iter().map(|(s, g)| ModelRef { store: s, graph: Some(g) }).collect();
+        let refs: Vec<ModelRef<'_, memmap2::Mmap>> = self
+            .models
+            .iter()
+            .map(|(s, g)| ModelRef { store: s, graph: Some(g), up: glam::DVec3::Y })
+            .collect();
         run_session(&refs, &script.session(), settings, extra)
     }
 }
@@ -234,7 +237,7 @@ fn drive(
     extra: f64,
 ) -> (Vec<KioskFrame>, kiosk_core::kiosk::Kiosk) {
     let refs: Vec<ModelRef<'_, memmap2::Mmap>> =
-        d.models.iter().map(|(s, g)| ModelRef { store: s, graph: Some(g) }).collect();
+        d.models.iter().map(|(s, g)| ModelRef { store: s, graph: Some(g), up: glam::DVec3::Y }).collect();
     let session = script.session();
     let mut kiosk = kiosk_core::kiosk::Kiosk::new(settings.clone(), refs.len(), 0.0);
     let dt = 1.0 / settings.explore.fps;
@@ -315,4 +318,23 @@ fn popularity_without_data_changes_no_frame() {
     let a = serde_json::to_string(&d.run(&s, &fast(), 1.0)).expect("json");
     let b = serde_json::to_string(&d.run(&s, &on, 1.0)).expect("json");
     assert_eq!(a, b);
+}
+
+#[test]
+fn a_z_up_model_starts_upright_and_stays_upright() {
+    let d = demo();
+    let (store, graph) = &d.models[0];
+    let script = Script::new().wait(0.2).tap(1, 0.5, 0.86).wait(0.5).joystick(2, (0.2, 0.0), 1.5).wait(0.5);
+    for up in [glam::DVec3::Y, glam::DVec3::Z] {
+        let refs = [ModelRef { store, graph: Some(graph), up }];
+        let frames = run_session(&refs, &script.session(), &fast(), 1.0);
+        let explored: Vec<_> = frames.iter().filter_map(|f| f.explore.as_ref()).collect();
+        assert!(!explored.is_empty(), "the visitor explores");
+        for f in &explored {
+            let cam_up = glam::DVec3::from_array(f.up);
+            assert!(cam_up.dot(up) > 0.7, "up {up}: the camera's up {cam_up} leans away from the model's");
+        }
+        let first = glam::DVec3::from_array(explored[0].up);
+        assert!(first.dot(up) > 0.99, "up {up}: the exploration starts upright ({first})");
+    }
 }

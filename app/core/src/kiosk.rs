@@ -129,6 +129,9 @@ pub struct ModelRef<'a, B: AsRef<[u8]>> {
     pub store: &'a Store<B>,
     /// Its story, if any.
     pub graph: Option<&'a InfoGraph>,
+    /// The model's up axis (unit; scanners and photogrammetry often give Z up): the explorer's
+    /// start framing and IsoCam's up follow it.
+    pub up: glam::DVec3,
 }
 
 /// What the shell must do besides drawing.
@@ -514,6 +517,7 @@ impl Kiosk {
                 // Each visit gets its own seed: a different story order per visitor, reproducible.
                 let mut s = self.settings.explore;
                 s.seed = s.seed.wrapping_add(self.visits);
+                s.up = m.up;
                 self.visits += 1;
                 let mut x = Explorer::new(m.store, m.graph, &s, t);
                 if let Some(gamma) = m

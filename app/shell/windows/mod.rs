@@ -87,6 +87,8 @@ pub struct Exhibit {
     pub store: MappedStore,
     /// Its story.
     pub graph: Option<InfoGraph>,
+    /// Its model's up axis (`exhibit.toml`).
+    pub up: glam::DVec3,
 }
 
 impl Exhibit {
@@ -130,8 +132,15 @@ pub fn load_exhibits(config: &Config) -> anyhow::Result<Vec<Exhibit>> {
                 None
             }
         };
+        let up = match crate::exhibit::model_up(&dir) {
+            Ok(up) => up,
+            Err(e) => {
+                tracing::error!("{e:#}; the model is shown with +Y up");
+                glam::DVec3::Y
+            }
+        };
         tracing::info!("exhibit {}: {} samples", dir.display(), store.header().leaf_point_count);
-        out.push(Exhibit { dir, store, graph });
+        out.push(Exhibit { dir, store, graph, up });
     }
     anyhow::ensure!(!out.is_empty(), "no exhibit could be loaded from {}", config.content.display());
     Ok(out)
@@ -499,8 +508,10 @@ impl Running {
         let dt = 1.0 / self.kiosk.settings.explore.fps;
         let now = self.clock(opts.speed);
         let end = self.input.end(opts.run_for);
-        let models: Vec<ModelRef<'_, memmap2::Mmap>> =
-            exhibits.iter().map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref() }).collect();
+        let models: Vec<ModelRef<'_, memmap2::Mmap>> = exhibits
+            .iter()
+            .map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref(), up: e.up })
+            .collect();
         let mut stepped = false;
         while self.sim_t + dt <= now {
             let t = self.steps as f64 * dt;
@@ -551,8 +562,10 @@ impl Running {
     /// statistics of the exhibits they explored. Only at a visit's end: not every frame.
     fn persist(&mut self, exhibits: &[Exhibit], exit: bool) {
         if exit {
-            let models: Vec<ModelRef<'_, memmap2::Mmap>> =
-                exhibits.iter().map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref() }).collect();
+            let models: Vec<ModelRef<'_, memmap2::Mmap>> = exhibits
+                .iter()
+                .map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref(), up: e.up })
+                .collect();
             self.kiosk.end_visit(&models, self.sim_t, kiosk_core::stats::VisitEnd::Exit);
         }
         let visits = self.kiosk.take_visits();
@@ -654,12 +667,10 @@ impl Running {
             }
             None => {
                 let fov = self.kiosk.settings.explore.fov_y;
-                let c0 = initial_camera(store, fov, self.kiosk.settings.explore.up);
-                let angle = 0.15 * t;
-                let (sin, cos) = angle.sin_cos();
-                let d = c0.eye - c0.target;
-                let rotated = glam::DVec3::new(d.x * cos + d.z * sin, d.y, -d.x * sin + d.z * cos);
-                camera = Camera { eye: c0.target + rotated, ..c0 };
+                // The gallery's turntable, about the model's own up axis.
+                let c0 = initial_camera(store, fov, ex.up);
+                let turn = glam::DQuat::from_axis_angle(ex.up, 0.15 * t);
+                camera = Camera { eye: c0.target + turn * (c0.eye - c0.target), up: turn * c0.up, ..c0 };
                 if self.gallery_cut.as_ref().is_none_or(|(m, _)| *m != model) {
                     self.gallery_cut = Some((model, Cut::root(store)));
                 }
