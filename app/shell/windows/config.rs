@@ -223,6 +223,15 @@ mod tests {
     }
 
     #[test]
+    fn the_readmes_example_configuration_is_valid() {
+        let readme = include_str!("../../../README.md");
+        let start = readme.find("```toml\n").expect("a TOML example in the README") + 8;
+        let end = start + readme[start..].find("```").expect("its end");
+        let c = Config::parse(&readme[start..end]).unwrap_or_else(|e| panic!("README's kiosk.toml: {e}"));
+        assert_eq!(c.controller.monitor, 1);
+    }
+
+    #[test]
     fn errors_name_the_key() {
         let e = Config::parse("atract_after_secs = 5").expect_err("typo");
         assert!(e.contains("atract_after_secs"), "{e}");
