@@ -37,7 +37,19 @@ pub struct Project {
     /// The text of graph.xml as last read or written: saving writes over it, keeping what the
     /// loader could not read (see [`InfoGraph::to_xml_over`]).
     original: Option<String>,
+    /// The model's up axis (`exhibit.toml`; +Y without one).
+    pub up: DVec3,
 }
+
+/// The up axes a model may have, with their names in `exhibit.toml`.
+pub const UP_AXES: [(&str, DVec3); 6] = [
+    ("y", DVec3::Y),
+    ("z", DVec3::Z),
+    ("x", DVec3::X),
+    ("-y", DVec3::NEG_Y),
+    ("-z", DVec3::NEG_Z),
+    ("-x", DVec3::NEG_X),
+];
 
 impl Project {
     /// Opens an exhibit directory (creating an empty graph when it has none).
@@ -49,10 +61,17 @@ impl Project {
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
             Err(e) => return Err(e).with_context(|| format!("cannot read {}", graph_file.display())),
         };
-        let (graph, problems) = match kiosk::exhibit::open_graph(dir)? {
+        let (up, up_problem) = match kiosk::exhibit::model_up(dir) {
+            Ok(up) => (up, None),
+            Err(e) => {
+                (DVec3::Y, Some(Problem { node: None, msg: format!("{e:#}; +Y up used"), dropped: false }))
+            }
+        };
+        let (graph, mut problems) = match kiosk::exhibit::open_graph(dir)? {
             Some((g, p)) => (g, p),
             None => (InfoGraph { default_lang: "en".into(), ..InfoGraph::default() }, Vec::new()),
         };
+        problems.extend(up_problem);
         Ok((
             Self {
                 dir: dir.to_path_buf(),
@@ -62,6 +81,7 @@ impl Project {
                 undo: Vec::new(),
                 redo: Vec::new(),
                 original,
+                up,
             },
             problems,
         ))
@@ -303,6 +323,20 @@ impl Project {
             self.graph.check_files(VIEW_ASPECT, &|rel: &str| kiosk::exhibit::probe_media(&self.dir, rel)),
         );
         p
+    }
+
+    /// Turns the model upright: sets its up axis (one of [`UP_AXES`]) and writes it to
+    /// `exhibit.toml` at once (atomically), so the kiosk shows the model the same way.
+    pub fn set_up(&mut self, up: DVec3) -> anyhow::Result<()> {
+        let name = UP_AXES.iter().find(|(_, a)| *a == up).map(|(n, _)| *n).context("not an axis")?;
+        let path = self.dir.join("exhibit.toml");
+        let tmp = self.dir.join(".exhibit.toml.saving");
+        let text = format!("# The model's up axis: x, y, z, -x, -y or -z.\nup = \"{name}\"\n");
+        std::fs::write(&tmp, text)
+            .and_then(|()| std::fs::rename(&tmp, &path))
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        self.up = up;
+        Ok(())
     }
 
     /// The graph as it would be saved: over the file it was read from, so that comments,

@@ -166,3 +166,20 @@ fn saving_without_edits_keeps_the_file_byte_for_byte_even_what_could_not_be_read
         assert!(saved.contains(kept), "lost {kept}:\n{saved}");
     }
 }
+
+#[test]
+fn a_curator_turns_the_model_upright_and_the_kiosk_reads_it() {
+    let dir = exhibit();
+    let (mut p, _) = Project::open(dir.path()).expect("open");
+    assert_eq!(p.up, DVec3::Y, "no exhibit.toml: +Y");
+    p.set_up(DVec3::Z).expect("set up");
+    assert_eq!(kiosk::exhibit::model_up(dir.path()).expect("the kiosk reads it"), DVec3::Z);
+    let (again, problems) = Project::open(dir.path()).expect("reopen");
+    assert_eq!(again.up, DVec3::Z);
+    assert!(problems.is_empty(), "{problems:?}");
+    assert!(p.set_up(DVec3::new(1.0, 1.0, 0.0)).is_err(), "only the six axes");
+    std::fs::write(dir.path().join("exhibit.toml"), "up = \"diagonal\"\n").expect("write");
+    let (broken, problems) = Project::open(dir.path()).expect("opens all the same");
+    assert_eq!(broken.up, DVec3::Y);
+    assert!(problems.iter().any(|p| p.msg.contains("diagonal")), "{problems:?}");
+}

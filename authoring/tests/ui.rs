@@ -264,3 +264,15 @@ fn the_views_show_what_visitors_did_with_them() {
     let line = "Visitors (12 visits): shown 4 times, 25 s each on average, proposals accepted 75 %, picked in the menu 2 times";
     assert!(h.query_by_label(line).is_some(), "the selected view's figures");
 }
+
+#[test]
+fn the_model_is_turned_upright_from_the_toolbar() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    copy_dir(&repo().join("content/demosthenes"), dir.path());
+    let mut h = harness(dir.path());
+    click(&mut h, "z");
+    let saved = std::fs::read_to_string(dir.path().join("exhibit.toml")).expect("exhibit.toml written");
+    assert!(saved.contains("up = \"z\""), "{saved}");
+    let cam = h.state().camera();
+    assert!(cam.up.dot(glam::DVec3::Z) > 0.99, "the live view starts upright about Z: {}", cam.up);
+}

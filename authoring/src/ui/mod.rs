@@ -105,7 +105,8 @@ impl AuthorApp {
     /// Opens a project; `gpu` renders the live view and thumbnails (none: no picture, still editable).
     pub fn new(project: Project, problems: Vec<Problem>, gpu: Option<(Gpu, Renderer)>) -> Self {
         let store = &project.store;
-        let cam = initial_camera(store, 0.8, glam::DVec3::Y);
+        let up = project.up;
+        let cam = initial_camera(store, 0.8, up);
         let mut cut = Cut::root(store);
         if let Some(v) = cam.view_params(store, LIVE_SIZE) {
             cut.update(store, &v, &CutParams { max_changes: usize::MAX, ..CutParams::default() });
@@ -116,7 +117,7 @@ impl AuthorApp {
             cam,
             ControllerKind::IsoCam,
             0.01 * diag,
-            glam::DVec3::Y,
+            up,
             f64::from(LIVE_SIZE.0) / f64::from(LIVE_SIZE.1.max(1)),
         );
         let lang = project.graph.default_lang.clone();
@@ -212,6 +213,31 @@ impl AuthorApp {
         let node = self.selected.as_deref().and_then(|id| g.index_of(id)).map(|i| &g.nodes[i]);
         self.title = node.and_then(|n| n.title.0.get(&self.lang).cloned()).unwrap_or_default();
         self.text = node.and_then(|n| n.text.0.get(&self.lang).cloned()).unwrap_or_default();
+    }
+
+    /// Turns the model upright: its up axis is saved in `exhibit.toml` and the live view starts
+    /// again from the upright framing.
+    pub fn set_up(&mut self, up: glam::DVec3) {
+        let r = self.project.set_up(up);
+        if self.report("model up", r).is_none() {
+            return;
+        }
+        let store = &self.project.store;
+        let cam = initial_camera(store, 0.8, up);
+        self.cut = Cut::root(store);
+        if let Some(v) = cam.view_params(store, LIVE_SIZE) {
+            self.cut.update(store, &v, &CutParams { max_changes: usize::MAX, ..CutParams::default() });
+        }
+        self.controller = make_controller(
+            SceneRef { store, cut: &self.cut },
+            cam,
+            ControllerKind::IsoCam,
+            0.01 * f64::from(store.bbox().diagonal()),
+            up,
+            f64::from(LIVE_SIZE.0) / f64::from(LIVE_SIZE.1.max(1)),
+        );
+        self.live_dirty = true;
+        self.say(format!("model up: {up}; saved in exhibit.toml"));
     }
 
     /// Moves the live camera (the IsoCam controller keeps it off the surface).
@@ -530,6 +556,14 @@ impl AuthorApp {
             }
             if recovered_path(self.project.dir()).exists() && ui.button("Restore autosave").clicked() {
                 self.restore_autosave();
+            }
+            ui.separator();
+            ui.label("Model up");
+            let current = self.project.up;
+            for (name, axis) in crate::UP_AXES {
+                if ui.selectable_label(current == axis, name).clicked() && current != axis {
+                    self.set_up(axis);
+                }
             }
             ui.separator();
             ui.label("Language");
