@@ -97,23 +97,12 @@ pub fn import_locked(scan: &Path, lock: &OutputLock, opts: &ImportOptions) -> an
     Ok(ImportReport { build: summary, warnings: report.warnings, seconds: start.elapsed().as_secs_f64() })
 }
 
-/// Refuses an import that would overwrite its own input, or whose input is already a store.
+/// Refuses an import that would overwrite its own input.
 fn check_input(scan: &Path, out: &Path) -> anyhow::Result<()> {
     if let (Ok(a), Ok(b)) = (scan.canonicalize(), out.canonicalize()) {
         anyhow::ensure!(a != b, "{}: the output is the input; choose another output file", out.display());
     }
-    // Only a regular file is peeked at (reading a pipe would take its bytes from the reader).
-    let mut magic = [0u8; 8];
-    let is_store = std::fs::metadata(scan).is_ok_and(|m| m.is_file())
-        && std::fs::File::open(scan)
-            .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut magic))
-            .is_ok_and(|()| magic == kiosk_core::scene::store::MAGIC);
-    anyhow::ensure!(
-        !is_store,
-        "{} is already a store (kiosk import reads scans: PLY, .ply.gz, OBJ); open it directly or check it \
-         with `kiosk verify`",
-        scan.display()
-    );
+    // A store given as the scan is told apart by the readers' format detection.
     Ok(())
 }
 

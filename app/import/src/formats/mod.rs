@@ -60,7 +60,7 @@ pub fn detect(path: &Path) -> Result<Format, DetectError> {
         return Ok(Format::Ply);
     }
     if head.starts_with(b"ISOKSTOR") {
-        return unsupported("an IsoKiosk store (open it directly; `kiosk verify` checks it)");
+        return unsupported("a file that is already a store (open it directly; `kiosk verify` checks it)");
     }
     if head.starts_with(b"glTF") || name.ends_with(".gltf") || name.ends_with(".glb") {
         return unsupported("a glTF model");
