@@ -100,17 +100,22 @@ pub fn model_up(dir: &Path) -> anyhow::Result<glam::DVec3> {
         up: Option<String>,
     }
     let file: ExhibitFile = toml::from_str(&text).with_context(|| format!("{}", path.display()))?;
-    let axis = match file.up.as_deref().map(str::trim) {
-        None | Some("y") => glam::DVec3::Y,
-        Some("x") => glam::DVec3::X,
-        Some("z") => glam::DVec3::Z,
-        Some("-x") => glam::DVec3::NEG_X,
-        Some("-y") => glam::DVec3::NEG_Y,
-        Some("-z") => glam::DVec3::NEG_Z,
-        Some(other) => anyhow::bail!("{}: up = {other:?}: must be x, y, z, -x, -y or -z", path.display()),
-    };
-    Ok(axis)
+    let Some(name) = file.up.as_deref().map(str::trim) else { return Ok(glam::DVec3::Y) };
+    match UP_AXES.iter().find(|(n, _)| *n == name) {
+        Some((_, axis)) => Ok(*axis),
+        None => anyhow::bail!("{}: up = {name:?}: must be x, y, z, -x, -y or -z", path.display()),
+    }
 }
+
+/// The up axes a model may have, with their names in `exhibit.toml`.
+pub const UP_AXES: [(&str, glam::DVec3); 6] = [
+    ("y", glam::DVec3::Y),
+    ("z", glam::DVec3::Z),
+    ("x", glam::DVec3::X),
+    ("-y", glam::DVec3::NEG_Y),
+    ("-z", glam::DVec3::NEG_Z),
+    ("-x", glam::DVec3::NEG_X),
+];
 
 /// Reads an exhibit's information graph (`graph.xml`), if it has one. Problems are returned
 /// alongside (the kiosk logs them and shows the rest); an unreadable graph is an error.

@@ -41,15 +41,7 @@ pub struct Project {
     pub up: DVec3,
 }
 
-/// The up axes a model may have, with their names in `exhibit.toml`.
-pub const UP_AXES: [(&str, DVec3); 6] = [
-    ("y", DVec3::Y),
-    ("z", DVec3::Z),
-    ("x", DVec3::X),
-    ("-y", DVec3::NEG_Y),
-    ("-z", DVec3::NEG_Z),
-    ("-x", DVec3::NEG_X),
-];
+pub use kiosk::exhibit::UP_AXES;
 
 impl Project {
     /// Opens an exhibit directory (creating an empty graph when it has none).
