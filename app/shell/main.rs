@@ -170,9 +170,9 @@ enum Command {
         /// Output PNG.
         #[arg(short, long)]
         output: PathBuf,
-        /// Round points instead of oriented splats.
-        #[arg(long)]
-        points: bool,
+        /// How splats are drawn: blended (smooth), discs or points (faster).
+        #[arg(long, default_value = "blended")]
+        splats: kiosk_render::SplatMode,
         /// Eye-dome lighting strength (0 = off).
         #[arg(long, default_value_t = 0.0)]
         edl: f32,
@@ -254,7 +254,7 @@ fn main() -> anyhow::Result<()> {
                 h.origin
             );
         }
-        Command::Snapshot { exhibit, view, node, size, output, points, edl, tolerance } => {
+        Command::Snapshot { exhibit, view, node, size, output, splats, edl, tolerance } => {
             let store = kiosk::exhibit::open_model(&exhibit)?;
             let size = kiosk::snapshot::parse_size(&size)?;
             let camera = match (view, node) {
@@ -271,11 +271,8 @@ fn main() -> anyhow::Result<()> {
             };
             let (gpu, mut renderer) = kiosk::snapshot::offscreen()?;
             gpu.check_size(size).with_context(|| format!("--size {}x{}", size.0, size.1))?;
-            let settings = kiosk_render::RenderSettings {
-                mode: if points { kiosk_render::SplatMode::Points } else { kiosk_render::SplatMode::Splats },
-                edl_strength: edl,
-                ..Default::default()
-            };
+            let settings =
+                kiosk_render::RenderSettings { mode: splats, edl_strength: edl, ..Default::default() };
             let image =
                 kiosk::snapshot::snapshot(&gpu, &mut renderer, &store, &camera, size, tolerance, &settings)?;
             image.save(&output).with_context(|| format!("cannot write {}", output.display()))?;

@@ -1,4 +1,4 @@
-//! `cargo bench --bench render [-- --quick | --tradeoff-only]`: the renderer's numbers
+//! `cargo bench --bench render [-- --quick | --tradeoff-only | --quality-only]`: the renderer's numbers
 //! (docs/performance.md). No GPU here: the adapter is lavapipe (software Vulkan); the command is
 //! the same on a GPU.
 //!
@@ -8,6 +8,11 @@
 //! 3. Speed against accuracy: pixel tolerance of the cut against frame time, splats drawn and
 //!    image error (PSNR, SSIM) against a full-resolution render (table and
 //!    `target/bench/render-tradeoff.svg`).
+//! 4. Image quality of each splat mode against the mesh render (`quality`): PSNR, SSIM, visible
+//!    edges and ms per frame at 1920×1080, far, middle and close up (table and
+//!    `target/bench/render-quality.svg`).
+
+mod quality;
 
 use glam::DVec3;
 use kiosk::MappedStore;
@@ -44,6 +49,11 @@ fn main() -> anyhow::Result<()> {
     std::fs::create_dir_all(&out_dir)?;
     let (gpu, mut renderer) = kiosk::snapshot::offscreen()?;
     println!("adapter: {} ({:?}, {:?})", gpu.adapter.name, gpu.adapter.backend, gpu.adapter.device_type);
+    let quality_size = (1920, 1080);
+    if std::env::args().any(|a| a == "--quality-only") {
+        quality::run(&gpu, &mut renderer, root, &out_dir, quality_size, if quick { 2 } else { 5 })?;
+        return Ok(());
+    }
     let dir = tempfile::tempdir()?;
     let scan = kiosk_testkit::synthetic::dragon_scan();
     let scan_store = dir.path().join("dragon.kstore");
@@ -180,5 +190,6 @@ fn main() -> anyhow::Result<()> {
         root.present()?;
     }
     println!("\nplot: {}", svg.display());
+    quality::run(&gpu, &mut renderer, root, &out_dir, quality_size, if quick { 2 } else { 5 })?;
     Ok(())
 }

@@ -139,7 +139,7 @@ fn every_wgsl_file_validates_with_naga() {
             n += 1;
         }
     }
-    assert!(n >= 2, "expected the splat and EDL shaders, found {n}");
+    assert!(n >= 3, "expected the splat, EDL and blit shaders, found {n}");
 }
 
 #[test]
@@ -167,15 +167,122 @@ fn start(store: &MappedStore) -> Camera {
 }
 
 #[test]
-fn golden_images_of_real_scans() {
+fn golden_images_of_real_scans_in_every_mode() {
     let size = (160, 120);
-    let splats = RenderSettings::default();
-    let points = RenderSettings { mode: SplatMode::Points, ..RenderSettings::default() };
+    for (name, mode) in SplatMode::ALL {
+        let settings = RenderSettings { mode, ..RenderSettings::default() };
+        assert_golden(
+            &format!("bunny-{name}"),
+            &render(&bunny().store, &start(&bunny().store), size, &settings),
+        );
+        assert_golden(
+            &format!("bust-{name}"),
+            &render(&bust().store, &start(&bust().store), size, &settings),
+        );
+    }
+    // Eye-dome lighting on the blended mode's depth.
     let edl = RenderSettings { edl_strength: 0.5, ..RenderSettings::default() };
-    assert_golden("bunny-splats", &render(&bunny().store, &start(&bunny().store), size, &splats));
-    assert_golden("bunny-points", &render(&bunny().store, &start(&bunny().store), size, &points));
-    assert_golden("bust-splats", &render(&bust().store, &start(&bust().store), size, &splats));
     assert_golden("bust-edl", &render(&bust().store, &start(&bust().store), size, &edl));
+}
+
+/// The bust's mesh, its store and the close-up view of the quality benchmark, drawn by the mesh
+/// reference renderer and in `mode`.
+fn close_up_against_mesh(mode: SplatMode, size: (u32, u32)) -> (image::RgbaImage, image::RgbaImage) {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/scans/demosthenes/demosthenes-low-res.obj");
+    let mesh = kiosk_testkit::mesh::read(&path).expect("the bust's mesh");
+    let store = &bust().store;
+    let [_, _, (_, close)] = kiosk_testkit::mesh::views(store, &mesh);
+    let settings = RenderSettings { mode, ..RenderSettings::default() };
+    let splats = render(store, &close, size, &settings);
+    let g = gpu().lock().unwrap_or_else(|e| e.into_inner());
+    let reference = kiosk_render::reference::MeshRenderer::new(&g.0, kiosk_render::OFFSCREEN_FORMAT)
+        .render_image(&g.0, &mesh, &close, size, &settings)
+        .expect("mesh render");
+    drop(g);
+    assert_no_validation_errors();
+    (splats, reference)
+}
+
+#[test]
+fn a_blended_close_up_is_as_smooth_as_the_mesh_it_samples() {
+    use kiosk_testkit::metrics::{coverage, edge_share, extra_edge_share, interior, srgb8};
+    // The kiosk's wall is full HD or more; half of it keeps the test quick.
+    let size = (960, 540);
+    let bg = srgb8(RenderSettings::default().background);
+    let measure = |mode| {
+        let (img, reference) = close_up_against_mesh(mode, size);
+        // Kept for a look when the test fails.
+        let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("close-up");
+        std::fs::create_dir_all(&out).expect("output directory");
+        img.save(out.join(format!("{mode}.png"))).expect("write image");
+        reference.save(out.join("mesh.png")).expect("write image");
+        let mask = interior(&coverage(&reference, bg), &coverage(&img, bg), size, 2);
+        assert!(
+            mask.iter().filter(|m| **m).count() > (size.0 * size.1 / 2) as usize,
+            "the close-up fills the image"
+        );
+        (
+            edge_share(&img, &mask, 12),
+            edge_share(&reference, &mask, 12),
+            extra_edge_share(&img, &reference, &mask, 12, 2),
+            ssim(&img, &reference),
+        )
+    };
+    let (blended, mesh, blended_extra, blended_ssim) = measure(SplatMode::Blended);
+    let (discs, _, discs_extra, discs_ssim) = measure(SplatMode::Discs);
+    println!(
+        "close-up steps > 12/255: mesh {mesh:.4}, blended {blended:.4} ({blended_extra:.4} where the mesh has none), \
+         discs {discs:.4} ({discs_extra:.4}); SSIM blended {blended_ssim:.4}, discs {discs_ssim:.4}"
+    );
+    // Disc edges are steps where the surface has none (2 px away from its own). Opaque discs
+    // show many times more of them than the surface has edges; blended splats at most twice as
+    // many, all on the occluding contours, which the discs' rims scallop (the bust's mesh is
+    // coarse: its splats are ~100 px wide at this distance).
+    assert!(
+        discs_extra > 4.0 * mesh,
+        "discs: {discs_extra:.4} edges where the mesh has none, mesh {mesh:.4}"
+    );
+    assert!(
+        blended_extra <= 2.0 * mesh,
+        "blended: {blended_extra:.4} edges where the mesh has none, mesh {mesh:.4}"
+    );
+    assert!(blended * 5.0 < discs, "steps: blended {blended:.4}, discs {discs:.4}, mesh {mesh:.4}");
+    assert!(
+        blended_ssim >= 0.95 && blended_ssim > discs_ssim,
+        "SSIM blended {blended_ssim:.4}, discs {discs_ssim:.4}"
+    );
+}
+
+#[test]
+fn the_mesh_reference_draws_the_surface_the_splats_sample() {
+    // Far away every mode and the mesh agree: the reference shares camera, light and colour.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/scans/stanford-bunny/bun_zipper.ply");
+    let mesh = kiosk_testkit::mesh::read(&path).expect("the bunny's mesh");
+    let store = &bunny().store;
+    let [(_, far), ..] = kiosk_testkit::mesh::views(store, &mesh);
+    let size = (320, 240);
+    let reference = {
+        let g = gpu().lock().unwrap_or_else(|e| e.into_inner());
+        kiosk_render::reference::MeshRenderer::new(&g.0, kiosk_render::OFFSCREEN_FORMAT)
+            .render_image(&g.0, &mesh, &far, size, &RenderSettings::default())
+            .expect("mesh render")
+    };
+    for (name, mode) in SplatMode::ALL {
+        let img = render(store, &far, size, &RenderSettings { mode, ..RenderSettings::default() });
+        let s = ssim(&img, &reference);
+        assert!(s > 0.95, "{name}: SSIM {s:.4} against the mesh");
+    }
+    // A mesh moved by 10⁷ m is drawn at the same place (camera-relative, as the splats).
+    let mut moved = mesh.clone();
+    let offset = DVec3::new(1.0e7, -4.0e6, 2.5e6);
+    moved.origin += offset;
+    let cam = Camera { eye: far.eye + offset, target: far.target + offset, ..far };
+    let g = gpu().lock().unwrap_or_else(|e| e.into_inner());
+    let again = kiosk_render::reference::MeshRenderer::new(&g.0, kiosk_render::OFFSCREEN_FORMAT)
+        .render_image(&g.0, &moved, &cam, size, &RenderSettings::default())
+        .expect("mesh render");
+    assert!(ssim(&again, &reference) > 0.995);
 }
 
 #[test]

@@ -26,7 +26,7 @@ impl Blit {
         let (layout, pipeline) = fullscreen::pipeline(
             device,
             "blit",
-            &module,
+            (&module, "vs_main", "fs_main"),
             &[
                 fullscreen::fragment_binding(0, fullscreen::UNIFORM),
                 fullscreen::fragment_binding(

@@ -1,4 +1,4 @@
-//! Full-screen passes (eye-dome lighting, the window blit): one triangle covering the target, a
+//! Full-screen passes (the blended splats' resolve, eye-dome lighting, the window blit): one triangle covering the target, a
 //! fragment shader reading a uniform buffer and textures. Their pipeline and pass recording are
 //! the same apart from the bindings and the shader.
 
@@ -24,11 +24,11 @@ pub(crate) fn texture(sample_type: wgpu::TextureSampleType) -> wgpu::BindingType
 }
 
 /// The bind group layout and pipeline of a full-screen pass drawing into `format` with the
-/// shader's `vs_main` and `fs_main`.
+/// shader module's vertex and fragment entry points.
 pub(crate) fn pipeline(
     device: &wgpu::Device,
     label: &str,
-    module: &wgpu::ShaderModule,
+    (module, vertex, fragment): (&wgpu::ShaderModule, &str, &str),
     entries: &[wgpu::BindGroupLayoutEntry],
     format: wgpu::TextureFormat,
 ) -> (wgpu::BindGroupLayout, wgpu::RenderPipeline) {
@@ -44,7 +44,7 @@ pub(crate) fn pipeline(
         layout: Some(&pipeline_layout),
         vertex: wgpu::VertexState {
             module,
-            entry_point: Some("vs_main"),
+            entry_point: Some(vertex),
             compilation_options: Default::default(),
             buffers: &[],
         },
@@ -53,7 +53,7 @@ pub(crate) fn pipeline(
         multisample: wgpu::MultisampleState::default(),
         fragment: Some(wgpu::FragmentState {
             module,
-            entry_point: Some("fs_main"),
+            entry_point: Some(fragment),
             compilation_options: Default::default(),
             targets: &[Some(format.into())],
         }),

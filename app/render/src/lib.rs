@@ -24,6 +24,7 @@ pub use wgpu;
 
 mod blit;
 mod fullscreen;
+pub mod reference;
 pub use blit::{BLIT_WGSL, Blit};
 
 /// The splat shader (validated by a test with naga).
@@ -146,18 +147,50 @@ impl Gpu {
 }
 
 /// How splats are drawn.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum SplatMode {
-    /// Oriented discs (high quality).
-    Splats,
-    /// Screen-aligned round points (fallback).
+    /// Deferred blended surface splatting: overlapping splats of one surface blend their colour
+    /// and normal with a smooth kernel and every pixel is shaded with its blended normal (the
+    /// smooth image; the default).
+    #[default]
+    Blended,
+    /// Opaque oriented discs, each shaded with its one normal (faster; disc edges show close up).
+    Discs,
+    /// Screen-aligned round points (the fastest fallback).
     Points,
+}
+
+impl SplatMode {
+    /// Every mode, by its name.
+    pub const ALL: [(&'static str, SplatMode); 3] =
+        [("blended", SplatMode::Blended), ("discs", SplatMode::Discs), ("points", SplatMode::Points)];
+
+    /// Its name in `--splats` and `kiosk.toml`.
+    pub fn name(self) -> &'static str {
+        Self::ALL.iter().find(|(_, m)| *m == self).map_or("blended", |(n, _)| n)
+    }
+}
+
+impl std::fmt::Display for SplatMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for SplatMode {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL.iter().find(|(n, _)| *n == s).map(|(_, m)| *m).ok_or_else(|| {
+            let names: Vec<&str> = Self::ALL.iter().map(|(n, _)| *n).collect();
+            format!("unknown splat mode '{s}' (one of: {})", names.join(", "))
+        })
+    }
 }
 
 /// Rendering settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
-    /// Splats or round points.
+    /// Blended splats, opaque discs or round points.
     pub mode: SplatMode,
     /// Multiplies every splat radius.
     pub radius_scale: f32,
@@ -167,6 +200,18 @@ pub struct RenderSettings {
     pub light_mix: f32,
     /// Ambient term.
     pub ambient: f32,
+    /// Strength of the Blinn–Phong highlight (0: matte).
+    pub specular: f32,
+    /// Blinn–Phong exponent of the highlight.
+    pub shininess: f32,
+    /// Blended mode: how far behind the front surface, in splat radii along the view ray, a
+    /// splat still blends into a pixel (see [`DEFAULT_BLEND_EPSILON`]).
+    pub blend_epsilon: f32,
+    /// Blended mode: the kernel's Gaussian exponent at the disc's edge (larger: sharper).
+    pub kernel_sharpness: f32,
+    /// Smallest splat radius in pixels: a far splat is enlarged to it so that none falls between
+    /// pixel centres.
+    pub min_pixel_radius: f32,
     /// Eye-dome lighting strength (0: off).
     pub edl_strength: f32,
     /// Eye-dome lighting neighbour distance in pixels.
@@ -179,14 +224,25 @@ pub struct RenderSettings {
     pub upload_budget_bytes: u64,
 }
 
+/// The blend epsilon: 1 splat radius. Neighbouring splats of one surface, each a disc tangent
+/// to it, differ in depth at a pixel by at most about a radius where the surface curves or is
+/// seen obliquely, so they blend; a surface behind another is in front of it by more than the
+/// sampling's radius wherever the model is sampled finely enough to show it, so it is rejected.
+pub const DEFAULT_BLEND_EPSILON: f32 = 2.0;
+
 impl Default for RenderSettings {
     fn default() -> Self {
         Self {
-            mode: SplatMode::Splats,
+            mode: SplatMode::Blended,
             radius_scale: 1.0,
             light_dir: Vec3::new(0.4, 0.8, 0.5),
             light_mix: 0.35,
             ambient: 0.12,
+            specular: 0.12,
+            shininess: 24.0,
+            blend_epsilon: DEFAULT_BLEND_EPSILON,
+            kernel_sharpness: 2.5,
+            min_pixel_radius: 0.75,
             edl_strength: 0.0,
             edl_radius: 1.5,
             background: [0.02, 0.02, 0.025, 1.0],
@@ -216,7 +272,7 @@ pub struct FrameStats {
 /// Needs to be kept in sync with `Frame` in shaders/splat.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct FrameUniforms {
+pub(crate) struct FrameUniforms {
     clip_from_camera: [[f32; 4]; 4],
     offset: [f32; 4],
     camera_right: [f32; 4],
@@ -224,6 +280,9 @@ struct FrameUniforms {
     light_dir: [f32; 4],
     view_dir: [f32; 4],
     params: [f32; 4],
+    viewport: [f32; 4],
+    shading: [f32; 4],
+    background: [f32; 4],
 }
 
 /// Needs to be kept in sync with `Edl` in shaders/edl.wgsl.
@@ -246,12 +305,27 @@ struct Targets {
     /// Intermediate colour for the EDL pass.
     color: wgpu::TextureView,
     edl_group: wgpu::BindGroup,
+    /// The blended mode's sums: Σ w·colour and Σ w, Σ w·normal.
+    accumulated: [wgpu::TextureView; 2],
+    resolve_group: wgpu::BindGroup,
 }
+
+/// The blended mode's accumulation format: blendable floats (16 bits hold the sums of the few
+/// dozen splats that overlap at a pixel to 3 significant digits).
+const ACCUMULATION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
 /// The renderer for one colour format.
 pub struct Renderer {
     format: wgpu::TextureFormat,
+    /// Opaque discs and round points.
     pipeline: wgpu::RenderPipeline,
+    /// Blended mode: the depth of the discs pushed back by the epsilon.
+    visibility_pipeline: wgpu::RenderPipeline,
+    /// Blended mode: weighted sums of colour and normal.
+    accumulate_pipeline: wgpu::RenderPipeline,
+    /// Blended mode: normalisation and shading.
+    resolve_pipeline: wgpu::RenderPipeline,
+    resolve_layout: wgpu::BindGroupLayout,
     edl_pipeline: wgpu::RenderPipeline,
     edl_layout: wgpu::BindGroupLayout,
     uniforms: wgpu::Buffer,
@@ -267,6 +341,87 @@ pub struct Renderer {
     targets: Vec<Targets>,
 }
 
+/// The bind group layout of the frame uniforms (binding 0, vertex and fragment stages) and a
+/// uniform buffer for them.
+pub(crate) fn frame_binding(device: &wgpu::Device) -> (wgpu::BindGroupLayout, wgpu::Buffer, wgpu::BindGroup) {
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("frame"),
+        entries: &[wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+            ty: fullscreen::UNIFORM,
+            count: None,
+        }],
+    });
+    let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("frame uniforms"),
+        size: std::mem::size_of::<FrameUniforms>() as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("frame"),
+        layout: &layout,
+        entries: &[wgpu::BindGroupEntry { binding: 0, resource: uniforms.as_entire_binding() }],
+    });
+    (layout, uniforms, group)
+}
+
+/// What differs between the splat pipelines.
+struct SplatPipeline<'a> {
+    label: &'a str,
+    vertex: &'a str,
+    fragment: &'a str,
+    targets: &'a [Option<wgpu::ColorTargetState>],
+    depth_write: bool,
+    depth_compare: wgpu::CompareFunction,
+}
+
+fn splat_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    p: &SplatPipeline<'_>,
+) -> wgpu::RenderPipeline {
+    // Needs to be kept in sync with `Splat` (24 bytes).
+    const ATTRS: [wgpu::VertexAttribute; 4] =
+        wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32, 2 => Snorm16x2, 3 => Unorm8x4];
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(p.label),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some(p.vertex),
+            compilation_options: Default::default(),
+            buffers: &[Some(wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<Splat>() as u64,
+                step_mode: wgpu::VertexStepMode::Instance,
+                attributes: &ATTRS,
+            })],
+        },
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleStrip,
+            ..Default::default()
+        },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(p.depth_write),
+            depth_compare: Some(p.depth_compare),
+            stencil: wgpu::StencilState::default(),
+            bias: wgpu::DepthBiasState::default(),
+        }),
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some(p.fragment),
+            compilation_options: Default::default(),
+            targets: p.targets,
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
 impl Renderer {
     /// A renderer drawing into views of `format`.
     pub fn new(gpu: &Gpu, format: wgpu::TextureFormat) -> Self {
@@ -279,83 +434,86 @@ impl Renderer {
             label: Some("edl.wgsl"),
             source: wgpu::ShaderSource::Wgsl(EDL_WGSL.into()),
         });
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("frame"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            }],
-        });
-        let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("frame uniforms"),
-            size: std::mem::size_of::<FrameUniforms>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("frame"),
-            layout: &layout,
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: uniforms.as_entire_binding() }],
-        });
+        let (layout, uniforms, group) = frame_binding(device);
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("splats"),
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        // Needs to be kept in sync with `Splat` (24 bytes).
-        const ATTRS: [wgpu::VertexAttribute; 4] =
-            wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32, 2 => Snorm16x2, 3 => Unorm8x4];
-        let instance_layout = wgpu::VertexBufferLayout {
-            array_stride: std::mem::size_of::<Splat>() as u64,
-            step_mode: wgpu::VertexStepMode::Instance,
-            attributes: &ATTRS,
-        };
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("splats"),
-            layout: Some(&pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &splat,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(instance_layout)],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleStrip,
-                ..Default::default()
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: wgpu::StencilState::default(),
-                bias: wgpu::DepthBiasState::default(),
-            }),
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &splat,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
+        let pipeline = splat_pipeline(
+            device,
+            &pipeline_layout,
+            &splat,
+            &SplatPipeline {
+                label: "discs",
+                vertex: "vs_main",
+                fragment: "fs_disc",
                 targets: &[Some(format.into())],
+                depth_write: true,
+                depth_compare: wgpu::CompareFunction::Less,
+            },
+        );
+        let visibility_pipeline = splat_pipeline(
+            device,
+            &pipeline_layout,
+            &splat,
+            &SplatPipeline {
+                label: "visibility",
+                vertex: "vs_visibility",
+                fragment: "fs_visibility",
+                targets: &[],
+                depth_write: true,
+                depth_compare: wgpu::CompareFunction::Less,
+            },
+        );
+        let additive = wgpu::ColorTargetState {
+            format: ACCUMULATION_FORMAT,
+            blend: Some(wgpu::BlendState {
+                color: wgpu::BlendComponent {
+                    src_factor: wgpu::BlendFactor::One,
+                    dst_factor: wgpu::BlendFactor::One,
+                    operation: wgpu::BlendOperation::Add,
+                },
+                alpha: wgpu::BlendComponent {
+                    src_factor: wgpu::BlendFactor::One,
+                    dst_factor: wgpu::BlendFactor::One,
+                    operation: wgpu::BlendOperation::Add,
+                },
             }),
-            multiview_mask: None,
-            cache: None,
-        });
+            write_mask: wgpu::ColorWrites::ALL,
+        };
+        let accumulate_pipeline = splat_pipeline(
+            device,
+            &pipeline_layout,
+            &splat,
+            &SplatPipeline {
+                label: "accumulate",
+                vertex: "vs_main",
+                fragment: "fs_accumulate",
+                targets: &[Some(additive.clone()), Some(additive)],
+                depth_write: false,
+                depth_compare: wgpu::CompareFunction::LessEqual,
+            },
+        );
+        let unfiltered = fullscreen::texture(wgpu::TextureSampleType::Float { filterable: false });
+        let (resolve_layout, resolve_pipeline) = fullscreen::pipeline(
+            device,
+            "resolve",
+            (&splat, "vs_fullscreen", "fs_resolve"),
+            &[
+                fullscreen::fragment_binding(0, fullscreen::UNIFORM),
+                fullscreen::fragment_binding(1, unfiltered),
+                fullscreen::fragment_binding(2, unfiltered),
+            ],
+            format,
+        );
         let (edl_layout, edl_pipeline) = fullscreen::pipeline(
             device,
             "edl",
-            &edl,
+            (&edl, "vs_main", "fs_main"),
             &[
                 fullscreen::fragment_binding(0, fullscreen::UNIFORM),
-                fullscreen::fragment_binding(
-                    1,
-                    fullscreen::texture(wgpu::TextureSampleType::Float { filterable: false }),
-                ),
+                fullscreen::fragment_binding(1, unfiltered),
                 fullscreen::fragment_binding(2, fullscreen::texture(wgpu::TextureSampleType::Depth)),
             ],
             format,
@@ -369,6 +527,10 @@ impl Renderer {
         Self {
             format,
             pipeline,
+            visibility_pipeline,
+            accumulate_pipeline,
+            resolve_pipeline,
+            resolve_layout,
             edl_pipeline,
             edl_layout,
             uniforms,
@@ -411,6 +573,23 @@ impl Renderer {
             let attach = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
             let depth = tex("depth", DEPTH_FORMAT, attach);
             let color = tex("edl input", self.format, attach);
+            let accumulated =
+                [tex("Σ colour", ACCUMULATION_FORMAT, attach), tex("Σ normal", ACCUMULATION_FORMAT, attach)];
+            let resolve_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("resolve"),
+                layout: &self.resolve_layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: self.uniforms.as_entire_binding() },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::TextureView(&accumulated[0]),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: wgpu::BindingResource::TextureView(&accumulated[1]),
+                    },
+                ],
+            });
             let edl_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("edl"),
                 layout: &self.edl_layout,
@@ -420,7 +599,7 @@ impl Renderer {
                     wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&depth) },
                 ],
             });
-            self.targets.insert(0, Targets { size, depth, color, edl_group });
+            self.targets.insert(0, Targets { size, depth, color, edl_group, accumulated, resolve_group });
             self.targets.truncate(MAX_TARGET_SIZES);
         }
         &self.targets[0]
@@ -543,8 +722,9 @@ impl Renderer {
     ) -> Result<FrameStats, RenderError> {
         let mut stats = FrameStats::default();
         let draw = self.resident(gpu, store, nodes, settings, &mut stats);
-        let (near, far) = depth_range(store, camera);
-        let uniforms = frame_uniforms(store.origin(), camera, size, (near, far), settings);
+        let (near, far) = depth_range(store, &draw, camera);
+        let uniforms =
+            frame_uniforms(store.origin(), camera, size, (near, far), settings, self.format.is_srgb());
         gpu.queue.write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
         let edl_on = settings.edl_strength > 0.0;
         gpu.queue.write_buffer(
@@ -558,32 +738,9 @@ impl Renderer {
         let t = self.targets.first().ok_or_else(|| RenderError::Gpu("no render targets".into()))?;
         let mut enc =
             gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
-        let [r, g, b, a] = settings.background;
-        {
-            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("splats"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: if edl_on { &t.color } else { target },
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &t.depth,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_pipeline(&self.pipeline);
+        let shaded = if edl_on { &t.color } else { target };
+        // Draws every resident node of the cut with the pass's pipeline.
+        let draw_nodes = |pass: &mut wgpu::RenderPass<'_>, stats: &mut FrameStats| {
             pass.set_bind_group(0, &self.group, &[]);
             for id in &draw {
                 if let Some(e) = self.cache.get(id)
@@ -594,6 +751,61 @@ impl Renderer {
                     stats.nodes += 1;
                     stats.splats += u64::from(e.count);
                 }
+            }
+        };
+        let depth = |load| wgpu::RenderPassDepthStencilAttachment {
+            view: &t.depth,
+            depth_ops: Some(wgpu::Operations { load, store: wgpu::StoreOp::Store }),
+            stencil_ops: None,
+        };
+        let color = |view, clear| wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations { load: wgpu::LoadOp::Clear(clear), store: wgpu::StoreOp::Store },
+        };
+        match settings.mode {
+            SplatMode::Discs | SplatMode::Points => {
+                let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("splats"),
+                    color_attachments: &[Some(color(shaded, clear_color(settings.background, self.format)))],
+                    depth_stencil_attachment: Some(depth(wgpu::LoadOp::Clear(1.0))),
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                pass.set_pipeline(&self.pipeline);
+                draw_nodes(&mut pass, &mut stats);
+            }
+            SplatMode::Blended => {
+                {
+                    let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                        label: Some("visibility"),
+                        color_attachments: &[],
+                        depth_stencil_attachment: Some(depth(wgpu::LoadOp::Clear(1.0))),
+                        timestamp_writes: None,
+                        occlusion_query_set: None,
+                        multiview_mask: None,
+                    });
+                    pass.set_pipeline(&self.visibility_pipeline);
+                    draw_nodes(&mut pass, &mut FrameStats::default());
+                }
+                {
+                    let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                        label: Some("accumulate"),
+                        color_attachments: &[
+                            Some(color(&t.accumulated[0], wgpu::Color::TRANSPARENT)),
+                            Some(color(&t.accumulated[1], wgpu::Color::TRANSPARENT)),
+                        ],
+                        depth_stencil_attachment: Some(depth(wgpu::LoadOp::Load)),
+                        timestamp_writes: None,
+                        occlusion_query_set: None,
+                        multiview_mask: None,
+                    });
+                    pass.set_pipeline(&self.accumulate_pipeline);
+                    draw_nodes(&mut pass, &mut stats);
+                }
+                fullscreen::draw(&mut enc, "resolve", shaded, &self.resolve_pipeline, &t.resolve_group);
             }
         }
         if edl_on {
@@ -698,12 +910,29 @@ pub fn read_back(
     image::RgbaImage::from_raw(w, h, rgba).ok_or_else(|| RenderError::Readback("size mismatch".into()))
 }
 
-/// Near and far planes around the model as seen from the camera.
-fn depth_range<B: AsRef<[u8]>>(store: &Store<B>, camera: &Camera) -> (f32, f32) {
-    let bbox = store.bbox();
-    let diag = f64::from(bbox.diagonal()).max(1e-30);
+/// Near and far planes around the drawn nodes (their boxes grown by their largest splat) as
+/// seen from the camera: the nearest as far out as it can be, for the depth precision that the
+/// blended mode's epsilon test needs.
+fn depth_range<B: AsRef<[u8]>>(store: &Store<B>, nodes: &[NodeId], camera: &Camera) -> (f32, f32) {
     let eye = store.to_local(camera.eye);
-    let nearest = f64::from(bbox.distance_squared(eye).sqrt());
+    let nearest = nodes
+        .iter()
+        .map(|&id| {
+            let n = store.node(id);
+            let b = kiosk_core::geom::Aabb { min: Vec3::from(n.bbox_min), max: Vec3::from(n.bbox_max) };
+            b.inflate(n.radius_max).distance_squared(eye).sqrt()
+        })
+        .fold(f32::INFINITY, f32::min);
+    depth_range_of(store.bbox(), eye, nearest)
+}
+
+/// Near and far planes around `bbox` seen from `eye` (both in one local frame), with nothing
+/// nearer than `nearest` to draw: the near plane at half that, never nearer than 10⁻⁴ of the
+/// box's diagonal (the camera keeps farther from the surface than that).
+fn depth_range_of(bbox: kiosk_core::geom::Aabb, eye: Vec3, nearest: f32) -> (f32, f32) {
+    let diag = f64::from(bbox.diagonal()).max(1e-30);
+    let nearest =
+        f64::from(bbox.distance_squared(eye).sqrt().max(if nearest.is_finite() { nearest } else { 0.0 }));
     let corners = [bbox.min, bbox.max];
     let mut farthest: f64 = 0.0;
     for x in 0..2 {
@@ -714,17 +943,36 @@ fn depth_range<B: AsRef<[u8]>>(store: &Store<B>, camera: &Camera) -> (f32, f32) 
             }
         }
     }
-    let near = (nearest * 0.5).max(diag * 1e-6);
-    let far = (farthest * 1.01).max(near * 2.0);
+    let near = (nearest * 0.5).max(diag * 1e-4);
+    // Beyond the farthest corner by the blended mode's push of the farthest splats.
+    let far = (farthest * 1.05).max(near * 2.0);
     (near as f32, far as f32)
 }
 
-fn frame_uniforms(
+/// The clear colour of `background` (linear RGBA) in a target of `format`: an sRGB target
+/// encodes it itself, another gets it encoded (as the shaders encode their colours).
+fn clear_color([r, g, b, a]: [f64; 4], format: wgpu::TextureFormat) -> wgpu::Color {
+    let encode = |c: f64| {
+        if format.is_srgb() {
+            c
+        } else if c <= 0.003_130_8 {
+            12.92 * c
+        } else {
+            1.055 * c.clamp(0.0, 1.0).powf(1.0 / 2.4) - 0.055
+        }
+    };
+    wgpu::Color { r: encode(r), g: encode(g), b: encode(b), a }
+}
+
+/// The shaders' frame uniforms: `origin` is the model's (the store's) origin, the splats' and
+/// mesh vertices' positions are relative to it.
+pub(crate) fn frame_uniforms(
     origin: DVec3,
     camera: &Camera,
     size: (u32, u32),
     (near, far): (f32, f32),
     s: &RenderSettings,
+    srgb_target: bool,
 ) -> FrameUniforms {
     let forward = camera.forward();
     let right = camera.right();
@@ -735,16 +983,26 @@ fn frame_uniforms(
     let clip: Mat4 = proj * view;
     let offset = (origin - camera.eye).as_vec3();
     let mode = match s.mode {
-        SplatMode::Splats => 0.0,
+        SplatMode::Blended | SplatMode::Discs => 0.0,
         SplatMode::Points => 1.0,
     };
+    let focal = 1.0 / (camera.fov_y as f32 * 0.5).tan();
+    let [r, g, b, a] = s.background.map(|c| c as f32);
     FrameUniforms {
         clip_from_camera: clip.to_cols_array_2d(),
         offset: offset.extend(0.0).to_array(),
         camera_right: right.as_vec3().extend(0.0).to_array(),
-        camera_up: up.as_vec3().extend(0.0).to_array(),
-        light_dir: s.light_dir.normalize_or_zero().extend(0.0).to_array(),
+        camera_up: up.as_vec3().extend(focal).to_array(),
+        light_dir: s.light_dir.normalize_or(Vec3::Y).extend(0.0).to_array(),
         view_dir: forward.as_vec3().extend(0.0).to_array(),
         params: [mode, s.radius_scale, s.ambient, s.light_mix],
+        viewport: [size.0.max(1) as f32, size.1.max(1) as f32, s.min_pixel_radius, s.blend_epsilon],
+        shading: [
+            s.specular,
+            s.shininess.max(1.0),
+            if srgb_target { 1.0 } else { 0.0 },
+            s.kernel_sharpness.max(0.01),
+        ],
+        background: [r, g, b, a],
     }
 }

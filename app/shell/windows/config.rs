@@ -89,6 +89,10 @@ pub struct Config {
     pub state_dir: Option<PathBuf>,
     /// Whether and how popularity adjusts the nodes' importance.
     pub popularity: kiosk_core::stats::PopularitySettings,
+    /// How splats are drawn: "blended" (smooth, the default), "discs" or "points" (faster).
+    pub splats: String,
+    /// Eye-dome lighting strength (0 = off), for scans without colour.
+    pub edl: f32,
 }
 
 impl Default for Config {
@@ -108,6 +112,8 @@ impl Default for Config {
             tolerance_px: 1.5,
             state_dir: None,
             popularity: kiosk_core::stats::PopularitySettings::default(),
+            splats: kiosk_render::SplatMode::default().name().into(),
+            edl: 0.0,
         }
     }
 }
@@ -174,7 +180,24 @@ impl Config {
             return Err(format!("tolerance_px = {}: must be positive", self.tolerance_px));
         }
         self.popularity.check()?;
+        self.splat_mode().map_err(|e| format!("splats: {e}"))?;
+        if !(0.0..=4.0).contains(&self.edl) {
+            return Err(format!("edl = {}: must be in [0, 4]", self.edl));
+        }
         Ok(())
+    }
+
+    /// The renderer's settings this configuration asks for.
+    pub fn render_settings(&self) -> kiosk_render::RenderSettings {
+        kiosk_render::RenderSettings {
+            mode: self.splat_mode().unwrap_or_default(),
+            edl_strength: self.edl,
+            ..Default::default()
+        }
+    }
+
+    fn splat_mode(&self) -> Result<kiosk_render::SplatMode, String> {
+        self.splats.parse()
     }
 
     /// The vertical field of view in radians.
@@ -251,5 +274,17 @@ mod tests {
             let e = Config::parse(&format!("[projection]\nsize = {size}")).expect_err("size");
             assert!(e.contains("[projection] size"), "{size}: {e}");
         }
+        let e = Config::parse("splats = \"fuzzy\"").expect_err("mode");
+        assert!(e.contains("splats") && e.contains("blended, discs, points"), "{e}");
+        let e = Config::parse("edl = -1").expect_err("edl");
+        assert!(e.contains("edl = -1"), "{e}");
+    }
+
+    #[test]
+    fn the_splat_mode_reaches_the_renderer() {
+        assert_eq!(Config::default().render_settings().mode, kiosk_render::SplatMode::Blended);
+        let c = Config::parse("splats = \"points\"\nedl = 0.5").expect("valid");
+        let r = c.render_settings();
+        assert_eq!((r.mode, r.edl_strength), (kiosk_render::SplatMode::Points, 0.5));
     }
 }

@@ -371,7 +371,7 @@ impl App {
             mouse_down: false,
             ctrl: false,
             gallery_cut: None,
-            render_settings: RenderSettings::default(),
+            render_settings: self.opts.config.render_settings(),
             reported: HashSet::new(),
             rendered: 0,
             in_flight: None,

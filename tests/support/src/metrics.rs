@@ -58,6 +58,109 @@ pub fn psnr(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
     if mse == 0.0 { f64::INFINITY } else { 10.0 * (255.0f64 * 255.0 / mse).log10() }
 }
 
+/// Share of the pixels inside `mask` (true: the model covers the pixel) whose colour steps by
+/// more than `step` (0–255, any channel) to their right or lower neighbour inside the mask: the
+/// visible edges of the image, e.g. the rims of overlapping discs on a smooth surface.
+pub fn edge_share(img: &image::RgbaImage, mask: &[bool], step: u8) -> f64 {
+    let (w, h) = img.dimensions();
+    let inside = |x: u32, y: u32| mask[(y * w + x) as usize];
+    let differs = |a: &image::Rgba<u8>, b: &image::Rgba<u8>| (0..3).any(|c| a[c].abs_diff(b[c]) > step);
+    let (mut edges, mut total) = (0u64, 0u64);
+    for y in 0..h {
+        for x in 0..w {
+            if !inside(x, y) {
+                continue;
+            }
+            total += 1;
+            let p = img.get_pixel(x, y);
+            let right = x + 1 < w && inside(x + 1, y) && differs(p, img.get_pixel(x + 1, y));
+            let down = y + 1 < h && inside(x, y + 1) && differs(p, img.get_pixel(x, y + 1));
+            if right || down {
+                edges += 1;
+            }
+        }
+    }
+    if total == 0 { 0.0 } else { edges as f64 / total as f64 }
+}
+
+/// Share of the pixels inside `mask` where `img` steps (as [`edge_share`] counts) but `reference`
+/// has no step within `margin` pixels: edges the surface does not have, e.g. disc rims.
+pub fn extra_edge_share(
+    img: &image::RgbaImage,
+    reference: &image::RgbaImage,
+    mask: &[bool],
+    step: u8,
+    margin: u32,
+) -> f64 {
+    let (w, h) = img.dimensions();
+    let steps = |im: &image::RgbaImage| -> Vec<bool> {
+        let differs = |a: &image::Rgba<u8>, b: &image::Rgba<u8>| (0..3).any(|c| a[c].abs_diff(b[c]) > step);
+        (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                let i = (y * w + x) as usize;
+                let p = im.get_pixel(x, y);
+                mask[i]
+                    && ((x + 1 < w && mask[i + 1] && differs(p, im.get_pixel(x + 1, y)))
+                        || (y + 1 < h && mask[i + w as usize] && differs(p, im.get_pixel(x, y + 1))))
+            })
+            .collect()
+    };
+    let (mine, theirs) = (steps(img), steps(reference));
+    let m = i64::from(margin);
+    let near_reference_edge = |x: i64, y: i64| {
+        (-m..=m).any(|dy| {
+            (-m..=m).any(|dx| {
+                let (u, v) = (x + dx, y + dy);
+                u >= 0
+                    && v >= 0
+                    && u < i64::from(w)
+                    && v < i64::from(h)
+                    && theirs[(v * i64::from(w) + u) as usize]
+            })
+        })
+    };
+    let total = mask.iter().filter(|m| **m).count();
+    let extra = (0..i64::from(h))
+        .flat_map(|y| (0..i64::from(w)).map(move |x| (x, y)))
+        .filter(|&(x, y)| mine[(y * i64::from(w) + x) as usize] && !near_reference_edge(x, y))
+        .count();
+    if total == 0 { 0.0 } else { extra as f64 / total as f64 }
+}
+
+/// The pixels of `img` that are not `background` (an sRGB RGBA8 colour, ±2 per channel).
+pub fn coverage(img: &image::RgbaImage, background: [u8; 3]) -> Vec<bool> {
+    img.pixels().map(|p| (0..3).any(|c| p[c].abs_diff(background[c]) > 2)).collect()
+}
+
+/// The inside of a model seen in two images: the pixels both cover, `margin` pixels away from
+/// either one's silhouette (where two renderings of one surface differ by a pixel or two and
+/// every step is the silhouette's).
+pub fn interior(a: &[bool], b: &[bool], (w, h): (u32, u32), margin: u32) -> Vec<bool> {
+    let both: Vec<bool> = a.iter().zip(b).map(|(x, y)| *x && *y).collect();
+    let m = margin as i64;
+    (0..h as i64)
+        .flat_map(|y| (0..w as i64).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            (-m..=m).all(|dy| {
+                (-m..=m).all(|dx| {
+                    let (u, v) = (x + dx, y + dy);
+                    u >= 0 && v >= 0 && u < w as i64 && v < h as i64 && both[(v * w as i64 + u) as usize]
+                })
+            })
+        })
+        .collect()
+}
+
+/// The sRGB RGBA8 encoding of a linear colour (as an sRGB render target stores it).
+pub fn srgb8(linear: [f64; 4]) -> [u8; 3] {
+    let e = |c: f64| {
+        let c = c.clamp(0.0, 1.0);
+        (255.0 * if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }).round() as u8
+    };
+    [e(linear[0]), e(linear[1]), e(linear[2])]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -74,5 +177,29 @@ mod tests {
         });
         assert!(ssim(&a, &b) < 0.95);
         assert!(psnr(&a, &b) < 40.0);
+    }
+
+    #[test]
+    fn edges_are_steps_inside_the_mask_away_from_silhouettes() {
+        // A smooth ramp has no edges; a disc's rim on it does; background around is not counted.
+        let bg = srgb8([0.02, 0.02, 0.025, 1.0]);
+        let smooth = image::RgbaImage::from_fn(40, 40, |x, y| {
+            if (5..35).contains(&x) && (5..35).contains(&y) {
+                image::Rgba([100 + x as u8, 100, 100, 255])
+            } else {
+                image::Rgba([bg[0], bg[1], bg[2], 255])
+            }
+        });
+        let mut disc = smooth.clone();
+        for (x, y, p) in disc.enumerate_pixels_mut() {
+            if (x as i32 - 20).pow(2) + (y as i32 - 20).pow(2) < 64 {
+                p[1] = 140;
+            }
+        }
+        let mask = interior(&coverage(&smooth, bg), &coverage(&disc, bg), (40, 40), 2);
+        assert!(mask[20 * 40 + 20] && !mask[5 * 40 + 5] && !mask[0]);
+        assert_eq!(edge_share(&smooth, &mask, 12), 0.0);
+        let e = edge_share(&disc, &mask, 12);
+        assert!(e > 0.02 && e < 0.2, "{e}");
     }
 }

@@ -1,0 +1,247 @@
+//! The splats against the surface they sample: each model is imported, and the same views are
+//! drawn from its mesh by the mesh reference renderer (same camera, light and colour) and from
+//! its store in each splat mode. Printed: PSNR, SSIM, the share of visible edges (pixels inside
+//! the model, 2 px from both images' silhouettes, stepping by > 12/255 to a neighbour) and ms per frame; then SSIM against the cut's
+//! pixel tolerance at the far view; plots in target/bench/render-quality*.svg.
+
+use kiosk::MappedStore;
+use kiosk_core::camera::Camera;
+use kiosk_core::{Cut, CutParams};
+use kiosk_render::reference::MeshRenderer;
+use kiosk_render::{Gpu, RenderSettings, Renderer, SplatMode};
+use kiosk_testkit::metrics::{coverage, edge_share, interior, psnr, srgb8, ssim};
+use plotters::prelude::*;
+use std::path::Path;
+use std::time::Instant;
+
+/// The models: the two demo meshes (tuned on) and a held-back scan (not tuned on).
+const MODELS: [(&str, &str); 3] = [
+    ("demosthenes", "content/demosthenes/demosthenes-low-res.obj"),
+    ("nefertiti", "content/nefertiti/nefertiti-lowres.obj"),
+    ("bunny (held back)", "tests/data/scans/stanford-bunny/bun_zipper.ply"),
+];
+
+/// The blended mode's knobs tried at the close-ups: (blend epsilon, kernel sharpness).
+const KNOBS: [(f32, f32); 7] =
+    [(0.0, 2.5), (0.5, 2.5), (1.0, 2.5), (2.0, 2.5), (4.0, 2.5), (1.0, 1.0), (1.0, 5.0)];
+
+/// A model, a mode and its SSIM by cut tolerance.
+type ToleranceSeries = (String, SplatMode, Vec<(f32, f64)>);
+
+/// One row of the quality table.
+pub struct Row {
+    pub model: String,
+    pub view: &'static str,
+    pub mode: SplatMode,
+    pub psnr: f64,
+    pub ssim: f64,
+    pub edges: f64,
+    pub mesh_edges: f64,
+    pub ms: f64,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Draws `camera`'s view with a converged cut of `tolerance` and times `frames` more frames.
+#[expect(clippy::too_many_arguments, reason = "one measurement's inputs")]
+fn splat_frame(
+    gpu: &Gpu,
+    renderer: &mut Renderer,
+    store: &MappedStore,
+    camera: &Camera,
+    size: (u32, u32),
+    tolerance: f32,
+    settings: &RenderSettings,
+    frames: usize,
+) -> anyhow::Result<(image::RgbaImage, f64)> {
+    let v = camera.view_params(store, size).expect("view");
+    let mut cut = Cut::root(store);
+    cut.update(
+        store,
+        &v,
+        &CutParams { tolerance_px: tolerance, max_changes: usize::MAX, ..CutParams::default() },
+    );
+    let nodes = cut.visible_nodes(store, &v);
+    let (img, _) = renderer.render_image(gpu, store, &nodes, camera, size, settings)?;
+    let (_t, target) = renderer.offscreen_target(gpu, size);
+    let mut ms = Vec::new();
+    for _ in 0..frames {
+        let t0 = Instant::now();
+        renderer.render(gpu, store, &nodes, camera, &target, size, settings)?;
+        gpu.wait()?;
+        ms.push(t0.elapsed().as_secs_f64() * 1e3);
+    }
+    Ok((img, if ms.is_empty() { f64::NAN } else { median(ms) }))
+}
+
+/// Runs the comparison and prints its tables; `size` is the image size, `frames` the timed
+/// frames per measurement.
+pub fn run(
+    gpu: &Gpu,
+    renderer: &mut Renderer,
+    root: &Path,
+    out_dir: &Path,
+    size: (u32, u32),
+    frames: usize,
+) -> anyhow::Result<Vec<Row>> {
+    let mesh_renderer = MeshRenderer::new(gpu, kiosk_render::OFFSCREEN_FORMAT);
+    let base = RenderSettings::default();
+    let bg = srgb8(base.background);
+    let dir = tempfile::tempdir()?;
+    let images = out_dir.join("quality");
+    std::fs::create_dir_all(&images)?;
+    let mut rows = Vec::new();
+    let mut tolerance_series: Vec<ToleranceSeries> = Vec::new();
+    let mut knob_rows = Vec::new();
+    println!(
+        "\n## Image quality against the mesh render ({}×{}, 1 px cut; SSIM of the luminance, 8×8 windows; edges: share of model pixels stepping > 12/255)",
+        size.0, size.1
+    );
+    println!("| model | view | mode | PSNR dB | SSIM | edges (mesh) | ms per frame |");
+    println!("|---|---|---|---|---|---|---|");
+    for (name, rel) in MODELS {
+        let path = root.join(rel);
+        let store_path = dir.path().join(format!("{}.kstore", name.split(' ').next().unwrap_or("m")));
+        let opts = kiosk::import::ImportOptions { progress: false, ..Default::default() };
+        kiosk::import::import(&path, &store_path, &opts)?;
+        let store = kiosk::open_store(&store_path)?;
+        let mesh = kiosk_testkit::mesh::read(&path).map_err(anyhow::Error::msg)?;
+        for (view, cam) in kiosk_testkit::mesh::views(&store, &mesh) {
+            let reference = mesh_renderer.render_image(gpu, &mesh, &cam, size, &base)?;
+            let stem = format!("{}-{view}", name.split(' ').next().unwrap_or("m"));
+            reference.save(images.join(format!("{stem}-mesh.png")))?;
+            let covered = coverage(&reference, bg);
+            for (mode_name, mode) in SplatMode::ALL {
+                let settings = RenderSettings { mode, ..base };
+                let (img, ms) = splat_frame(gpu, renderer, &store, &cam, size, 1.0, &settings, frames)?;
+                img.save(images.join(format!("{stem}-{mode_name}.png")))?;
+                let mask = interior(&covered, &coverage(&img, bg), size, 2);
+                let mesh_edges = edge_share(&reference, &mask, 12);
+                edge_map(&img, &mask).save(images.join(format!("{stem}-{mode_name}-edges.png")))?;
+                let row = Row {
+                    model: name.into(),
+                    view,
+                    mode,
+                    psnr: psnr(&img, &reference),
+                    ssim: ssim(&img, &reference),
+                    edges: edge_share(&img, &mask, 12),
+                    mesh_edges,
+                    ms,
+                };
+                println!(
+                    "| {} | {view} | {mode} | {:.2} | {:.4} | {:.3} ({:.3}) | {:.0} |",
+                    row.model, row.psnr, row.ssim, row.edges, row.mesh_edges, row.ms
+                );
+                rows.push(row);
+                if view == "close-up" && mode == SplatMode::Blended {
+                    for (eps, sharp) in KNOBS {
+                        let knob = RenderSettings { blend_epsilon: eps, kernel_sharpness: sharp, ..settings };
+                        let (img, ms) = splat_frame(gpu, renderer, &store, &cam, size, 1.0, &knob, frames)?;
+                        img.save(images.join(format!("{stem}-blended-e{eps}-k{sharp}.png")))?;
+                        knob_rows.push(format!(
+                            "| {name} | {eps} | {sharp} | {:.4} | {:.3} | {ms:.0} |",
+                            ssim(&img, &reference),
+                            edge_share(&img, &mask, 12)
+                        ));
+                    }
+                }
+                if view == "far" && mode != SplatMode::Points {
+                    let mut series = Vec::new();
+                    for tol in [1.0f32, 2.0, 4.0, 8.0, 16.0] {
+                        let (img, _) = splat_frame(gpu, renderer, &store, &cam, size, tol, &settings, 0)?;
+                        series.push((tol, ssim(&img, &reference)));
+                    }
+                    tolerance_series.push((name.into(), mode, series));
+                }
+            }
+        }
+    }
+    println!("\n## Far view: SSIM against the mesh render by the cut's pixel tolerance");
+    println!("| model | mode | 1 px | 2 px | 4 px | 8 px | 16 px |");
+    println!("|---|---|---|---|---|---|---|");
+    for (model, mode, s) in &tolerance_series {
+        let cells: Vec<String> = s.iter().map(|(_, v)| format!("{v:.4}")).collect();
+        println!("| {model} | {mode} | {} |", cells.join(" | "));
+    }
+    println!("\n## Blended close-ups: the blend epsilon (splat radii) and the kernel's sharpness");
+    println!("| model | epsilon | sharpness | SSIM | edges | ms per frame |");
+    println!("|---|---|---|---|---|---|");
+    for r in &knob_rows {
+        println!("{r}");
+    }
+    plot(&rows, &tolerance_series, out_dir)?;
+    println!("\nimages: {}", images.display());
+    Ok(rows)
+}
+
+/// The image with its steps > 12/255 inside `mask` in red (what `edge_share` counts).
+fn edge_map(img: &image::RgbaImage, mask: &[bool]) -> image::RgbaImage {
+    let (w, h) = img.dimensions();
+    let step = |a: &image::Rgba<u8>, b: &image::Rgba<u8>| (0..3).any(|c| a[c].abs_diff(b[c]) > 12);
+    image::RgbaImage::from_fn(w, h, |x, y| {
+        let p = img.get_pixel(x, y);
+        let i = (y * w + x) as usize;
+        let edge = mask[i]
+            && ((x + 1 < w && mask[i + 1] && step(p, img.get_pixel(x + 1, y)))
+                || (y + 1 < h && mask[i + w as usize] && step(p, img.get_pixel(x, y + 1))));
+        if edge { image::Rgba([255, 0, 0, 255]) } else { image::Rgba([p[0] / 2, p[1] / 2, p[2] / 2, 255]) }
+    })
+}
+
+fn color(mode: SplatMode) -> RGBColor {
+    match mode {
+        SplatMode::Blended => BLUE,
+        SplatMode::Discs => RED,
+        SplatMode::Points => RGBColor(0, 150, 0),
+    }
+}
+
+fn plot(rows: &[Row], tolerance: &[ToleranceSeries], out_dir: &Path) -> anyhow::Result<()> {
+    let svg = out_dir.join("render-quality.svg");
+    let root = SVGBackend::new(&svg, (1000, 500)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let (left, right) = root.split_horizontally(560);
+    let xmax = rows.iter().map(|r| r.ms).filter(|m| m.is_finite()).fold(1.0, f64::max) * 1.1;
+    let ymin = rows.iter().map(|r| r.ssim).fold(1.0, f64::min).min(0.9) - 0.01;
+    let mut chart = ChartBuilder::on(&left)
+        .caption("SSIM against the mesh render vs ms per frame", ("sans-serif", 16))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(55)
+        .build_cartesian_2d(0.0..xmax, ymin..1.0)?;
+    chart.configure_mesh().x_desc("ms per frame (lavapipe)").y_desc("SSIM").draw()?;
+    for (_, mode) in SplatMode::ALL {
+        let pts: Vec<(f64, f64)> = rows.iter().filter(|r| r.mode == mode).map(|r| (r.ms, r.ssim)).collect();
+        chart
+            .draw_series(pts.iter().map(|&p| Circle::new(p, 4, color(mode).filled())))?
+            .label(mode.name())
+            .legend(move |(x, y)| Circle::new((x, y), 4, color(mode).filled()));
+    }
+    chart.draw_series(
+        rows.iter()
+            .filter(|r| r.mode == SplatMode::Blended)
+            .map(|r| Text::new(r.view, (r.ms, r.ssim + 0.003), ("sans-serif", 11).into_font())),
+    )?;
+    chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw()?;
+    let mut chart = ChartBuilder::on(&right)
+        .caption("Far view: SSIM vs cut tolerance", ("sans-serif", 16))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(55)
+        .build_cartesian_2d(0.5f32..17.0, ymin..1.0)?;
+    chart.configure_mesh().x_desc("cut tolerance, px").y_desc("SSIM").draw()?;
+    for (model, mode, s) in tolerance {
+        let c = color(*mode);
+        chart
+            .draw_series(LineSeries::new(s.iter().copied(), c.stroke_width(2)))?
+            .label(format!("{model} {mode}"))
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], c.stroke_width(2)));
+    }
+    chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw()?;
+    root.present()?;
+    println!("\nplot: {}", svg.display());
+    Ok(())
+}
