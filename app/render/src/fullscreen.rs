@@ -71,22 +71,38 @@ pub(crate) fn draw(
     pipeline: &wgpu::RenderPipeline,
     group: &wgpu::BindGroup,
 ) {
+    draw_within(enc, label, target, (pipeline, group), wgpu::Color::BLACK, None);
+}
+
+/// Records the pass: clears `target` to `clear` and runs the shader only within `scissor`
+/// (x, y, width, height in pixels; `None`: everywhere).
+pub(crate) fn draw_within(
+    enc: &mut wgpu::CommandEncoder,
+    label: &str,
+    target: &wgpu::TextureView,
+    (pipeline, group): (&wgpu::RenderPipeline, &wgpu::BindGroup),
+    clear: wgpu::Color,
+    scissor: Option<[u32; 4]>,
+) {
     let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some(label),
         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
             view: target,
             depth_slice: None,
             resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                store: wgpu::StoreOp::Store,
-            },
+            ops: wgpu::Operations { load: wgpu::LoadOp::Clear(clear), store: wgpu::StoreOp::Store },
         })],
         depth_stencil_attachment: None,
         timestamp_writes: None,
         occlusion_query_set: None,
         multiview_mask: None,
     });
+    if let Some([x, y, w, h]) = scissor {
+        if w == 0 || h == 0 {
+            return;
+        }
+        pass.set_scissor_rect(x, y, w, h);
+    }
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, group, &[]);
     pass.draw(0..3, 0..1);

@@ -805,7 +805,17 @@ impl Renderer {
                     pass.set_pipeline(&self.accumulate_pipeline);
                     draw_nodes(&mut pass, &mut stats);
                 }
-                fullscreen::draw(&mut enc, "resolve", shaded, &self.resolve_pipeline, &t.resolve_group);
+                // The resolve runs only where the drawn nodes can be (on lavapipe it costs as
+                // much as drawing a small model's splats when run over a whole 1080p frame);
+                // the background around is the pass's clear.
+                fullscreen::draw_within(
+                    &mut enc,
+                    "resolve",
+                    shaded,
+                    (&self.resolve_pipeline, &t.resolve_group),
+                    clear_color(settings.background, self.format),
+                    screen_rect(store, &draw, &uniforms, size),
+                );
             }
         }
         if edl_on {
@@ -908,6 +918,51 @@ pub fn read_back(
         }
     }
     image::RgbaImage::from_raw(w, h, rgba).ok_or_else(|| RenderError::Readback("size mismatch".into()))
+}
+
+/// The pixels (x, y, width, height) that `nodes` (their boxes grown by their largest splat) can
+/// cover, with 2 pixels to spare; `None` (everywhere) when a box reaches behind the eye.
+fn screen_rect<B: AsRef<[u8]>>(
+    store: &Store<B>,
+    nodes: &[NodeId],
+    u: &FrameUniforms,
+    (w, h): (u32, u32),
+) -> Option<[u32; 4]> {
+    let mut bbox = kiosk_core::geom::Aabb::EMPTY;
+    for &id in nodes {
+        let n = store.node(id);
+        bbox = bbox.union(
+            kiosk_core::geom::Aabb { min: Vec3::from(n.bbox_min), max: Vec3::from(n.bbox_max) }
+                .inflate(n.radius_max),
+        );
+    }
+    if bbox.is_empty() {
+        return Some([0, 0, 0, 0]);
+    }
+    let clip = Mat4::from_cols_array_2d(&u.clip_from_camera);
+    let offset = Vec3::from_slice(&u.offset[..3]);
+    let (mut lo, mut hi) = (glam::Vec2::splat(f32::MAX), glam::Vec2::splat(f32::MIN));
+    for k in 0..8 {
+        let c = Vec3::new(
+            if k & 1 == 0 { bbox.min.x } else { bbox.max.x },
+            if k & 2 == 0 { bbox.min.y } else { bbox.max.y },
+            if k & 4 == 0 { bbox.min.z } else { bbox.max.z },
+        );
+        let p = clip * (c + offset).extend(1.0);
+        if p.w <= 1e-6 * (c + offset).length().max(1e-30) {
+            return None;
+        }
+        let ndc = glam::Vec2::new(p.x, p.y) / p.w;
+        lo = lo.min(ndc);
+        hi = hi.max(ndc);
+    }
+    // NDC y points up, pixel rows down.
+    let to_px = |x: f32, size: u32| (x * 0.5 + 0.5) * size as f32;
+    let x0 = (to_px(lo.x, w) - 2.0).floor().clamp(0.0, w as f32) as u32;
+    let x1 = (to_px(hi.x, w) + 2.0).ceil().clamp(0.0, w as f32) as u32;
+    let y0 = (h as f32 - to_px(hi.y, h) - 2.0).floor().clamp(0.0, h as f32) as u32;
+    let y1 = (h as f32 - to_px(lo.y, h) + 2.0).ceil().clamp(0.0, h as f32) as u32;
+    Some([x0, y0, x1.saturating_sub(x0), y1.saturating_sub(y0)])
 }
 
 /// Near and far planes around the drawn nodes (their boxes grown by their largest splat) as
