@@ -257,25 +257,38 @@ fn main() -> anyhow::Result<()> {
         Command::Snapshot { exhibit, view, node, size, output, points, edl, tolerance } => {
             let store = kiosk::exhibit::open_model(&exhibit)?;
             let size = kiosk::snapshot::parse_size(&size)?;
-            let camera = match (view, node) {
-                (Some(v), _) => kiosk::snapshot::parse_view(&v)?,
+            // The view and its light: a node's stored light, else the start light of the view.
+            let (camera, light) = match (view, node) {
+                (Some(v), _) => {
+                    let c = kiosk::snapshot::parse_view(&v)?;
+                    (c, kiosk::windows::start_light(&c))
+                }
                 (None, Some(id)) => {
                     let (graph, _) = kiosk::exhibit::open_graph(&exhibit)?
                         .with_context(|| format!("{}: no graph.xml for --node", exhibit.display()))?;
                     let i = graph.index_of(&id).with_context(|| format!("no node '{id}' in the graph"))?;
-                    graph.nodes[i].view
+                    (graph.nodes[i].view, kiosk::windows::node_light(&graph.nodes[i]))
                 }
                 (None, None) => {
-                    kiosk_core::replay::initial_camera(&store, 0.8, kiosk::exhibit::model_up(&exhibit)?)
+                    let c =
+                        kiosk_core::replay::initial_camera(&store, 0.8, kiosk::exhibit::model_up(&exhibit)?);
+                    (c, kiosk::windows::start_light(&c))
                 }
             };
             let (gpu, mut renderer) = kiosk::snapshot::offscreen()?;
             gpu.check_size(size).with_context(|| format!("--size {}x{}", size.0, size.1))?;
-            let settings = kiosk_render::RenderSettings {
-                mode: if points { kiosk_render::SplatMode::Points } else { kiosk_render::SplatMode::Splats },
-                edl_strength: edl,
-                ..Default::default()
-            };
+            let settings = kiosk::windows::lit(
+                kiosk_render::RenderSettings {
+                    mode: if points {
+                        kiosk_render::SplatMode::Points
+                    } else {
+                        kiosk_render::SplatMode::Splats
+                    },
+                    edl_strength: edl,
+                    ..Default::default()
+                },
+                light,
+            );
             let image =
                 kiosk::snapshot::snapshot(&gpu, &mut renderer, &store, &camera, size, tolerance, &settings)?;
             image.save(&output).with_context(|| format!("cannot write {}", output.display()))?;
