@@ -279,6 +279,9 @@ impl Explorer {
     /// The steering finger moved by `(dx, dy)` (controller widths and heights, y down); starts a
     /// drag if none runs.
     pub fn light_drag(&mut self, dx: f64, dy: f64) {
+        if dx == 0.0 && dy == 0.0 && self.light_pad.is_some() {
+            return;
+        }
         if self.light_pad.is_none() {
             self.light_drag_start();
         }

@@ -139,7 +139,11 @@ impl LightEase {
     pub fn at(&self, t: f64) -> (DVec3, bool) {
         let x = if self.duration > 0.0 { ((t - self.start) / self.duration).clamp(0.0, 1.0) } else { 1.0 };
         let s = x * x * (3.0 - 2.0 * x);
-        if x >= 1.0 { (self.to, true) } else { (slerp_dir(self.from, self.to, s), false) }
+        if x >= 1.0 || self.from == self.to {
+            (self.to, x >= 1.0)
+        } else {
+            (slerp_dir(self.from, self.to, s), false)
+        }
     }
 }
 
