@@ -376,3 +376,39 @@ fn the_light_button_and_a_drag_relight_the_model_through_the_real_windows() {
     }
     assert!(sum / n > 3.0, "the model is lit differently: mean change {:.2}", sum / n);
 }
+
+#[test]
+fn snapshot_renders_a_node_in_its_stored_light() {
+    // A copy of the Demosthenes exhibit whose "face" view stores a raking light from the left.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let exhibit = dir.path().join("demosthenes");
+    copy_dir(&content().join("demosthenes"), &exhibit);
+    let shot = |name: &str| -> RgbaImage {
+        let out = dir.path().join(name);
+        let o = Command::new(env!("CARGO_BIN_EXE_kiosk"))
+            .args(["snapshot", "--node", "face", "--size", "320x180", "--exhibit"])
+            .arg(&exhibit)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .expect("run kiosk");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        image::open(&out).expect("png").to_rgba8()
+    };
+    let plain = shot("plain.png");
+    let graph = exhibit.join("graph.xml");
+    let xml = std::fs::read_to_string(&graph).expect("graph");
+    let (g, _) = kiosk_core::graph::InfoGraph::from_xml(&xml).expect("graph");
+    let mut lit = g.clone();
+    let i = lit.index_of("face").expect("face");
+    let view = lit.nodes[i].view;
+    lit.nodes[i].light = Some(-view.right());
+    std::fs::write(&graph, lit.to_xml_over(&xml).expect("save")).expect("write");
+    let raking = shot("raking.png");
+    let (mut sum, mut n) = (0.0, 0.0);
+    for (a, b) in plain.pixels().zip(raking.pixels()) {
+        sum += (luma(a) - luma(b)).abs();
+        n += 1.0;
+    }
+    assert!(sum / n > 2.0, "the stored light changed the picture: mean change {:.2}", sum / n);
+}

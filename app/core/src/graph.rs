@@ -1099,6 +1099,18 @@ mod tests {
         assert_eq!(back, edited);
     }
 
+    #[test]
+    fn the_readmes_example_graph_loads_with_its_light() {
+        let readme = include_str!("../../../README.md");
+        let start = readme.find("```xml\n").expect("an XML example in the README") + 7;
+        let end = start + readme[start..].find("```").expect("its end");
+        let (g, problems) = InfoGraph::from_xml(&readme[start..end]).expect("README's graph.xml");
+        assert!(problems.is_empty(), "{problems:?}");
+        let beard = &g.nodes[g.index_of("beard").expect("beard")];
+        let light = beard.light.expect("the example's light");
+        assert!((light.length() - 1.0).abs() < 1e-12 && light.x < 0.0, "{light}");
+    }
+
     /// Inputs the fuzzer found (fuzz/run graph_xml): a file that loads can be saved over.
     #[test]
     fn fuzzed_files_that_load_can_be_saved_over() {

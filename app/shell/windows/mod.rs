@@ -3,8 +3,9 @@
 //! the core's [`Kiosk`] at a fixed 60 Hz clock, with narration through kira.
 //!
 //! The light: each frame the renderer gets the exploration's light ([`kiosk_core::light`]:
-//! direction and weight of the user light); the gallery's turntable, thumbnails and the
-//! suggestion inset get the start light of their view, or the node's stored light.
+//! direction and weight of the user light); the gallery's turntable gets the light a visit
+//! starts with (fixed to the model as it turns), a thumbnail its node's stored light or that
+//! start light, the suggestion inset the proposed node's light or the current one.
 //!
 //! The same touch events that drive the windows are what `--record` writes and what `--session`
 //! plays back, so a recorded visit replays through the real windows, and through `kiosk replay`.
@@ -678,7 +679,7 @@ impl Running {
                 let c0 = initial_camera(store, fov, ex.up);
                 let turn = glam::DQuat::from_axis_angle(ex.up, 0.15 * t);
                 camera = Camera { eye: c0.target + turn * (c0.eye - c0.target), up: turn * c0.up, ..c0 };
-                settings = lit(settings, start_light(&camera));
+                settings = lit(settings, start_light(&c0));
                 if self.gallery_cut.as_ref().is_none_or(|(m, _)| *m != model) {
                     self.gallery_cut = Some((model, Cut::root(store)));
                 }
@@ -822,7 +823,8 @@ impl Running {
                 &CutParams { tolerance_px: 2.0, max_changes: usize::MAX, ..CutParams::default() },
             );
             let nodes = cut.visible_nodes(&ex.store, &v);
-            let settings = lit(self.render_settings, node_light(n));
+            let start = start_light(&initial_camera(&ex.store, self.kiosk.settings.explore.fov_y, ex.up));
+            let settings = lit(self.render_settings, node_light(n, start));
             self.renderer.render_image(&self.gpu, &ex.store, &nodes, &n.view, size, &settings).ok()
         });
         match img {
@@ -894,17 +896,17 @@ pub fn lit(settings: RenderSettings, light: Light) -> RenderSettings {
     RenderSettings { light_dir: light.dir.as_vec3(), light_mix: light.mix as f32, ..settings }
 }
 
-/// The light a visit starts with in view `camera` (the gallery, views without a light).
-pub fn start_light(camera: &Camera) -> Light {
-    Light { dir: kiosk_core::light::start_dir(camera), mix: kiosk_core::light::DEFAULT_MIX }
+/// The light a visit starts with, given its start view (`initial_camera`): the start light of
+/// [`kiosk_core::light`], the headlight dominating.
+pub fn start_light(start_view: &Camera) -> Light {
+    Light { dir: kiosk_core::light::start_dir(start_view), mix: kiosk_core::light::DEFAULT_MIX }
 }
 
-/// The light of a node's view: its stored light (the user light dominating), else the start
-/// light of its view.
-pub fn node_light(n: &kiosk_core::graph::Node) -> Light {
+/// The light of a node's view: its stored light (the user light dominating), else `otherwise`.
+pub fn node_light(n: &kiosk_core::graph::Node, otherwise: Light) -> Light {
     match n.light {
         Some(dir) => Light { dir, mix: kiosk_core::light::ACTIVE_MIX },
-        None => start_light(&n.view),
+        None => otherwise,
     }
 }
 
