@@ -43,17 +43,23 @@ pub struct Light {
     pub mix: f64,
 }
 
-/// A direction as a light: unit, or `None` when not finite or zero. A direction already unit
-/// (within 1e-9) is kept exactly as given, so a stored light reads back unchanged.
+/// A direction as a light: unit, or `None` when not finite or zero (any other length is
+/// normalised, however large or small). A direction already unit (within 1e-9) is kept exactly
+/// as given, so a stored light reads back unchanged.
 pub fn unit(v: DVec3) -> Option<DVec3> {
     if !v.is_finite() {
         return None;
     }
-    let len = v.length();
-    if !(len.is_finite() && len > 1e-12) {
+    if (v.length() - 1.0).abs() <= 1e-9 {
+        return Some(v);
+    }
+    // Scaled by its largest component first, so that neither huge nor tiny lengths overflow.
+    let m = v.abs().max_element();
+    if m == 0.0 {
         return None;
     }
-    Some(if (len - 1.0).abs() <= 1e-9 { v } else { v / len })
+    let w = v / m;
+    Some(w / w.length())
 }
 
 /// The view's axes: right, up, toward the viewer (unit, orthogonal).
@@ -214,6 +220,10 @@ mod tests {
         assert_eq!(unit(DVec3::new(f64::NAN, 0.0, 1.0)), None);
         assert_eq!(unit(DVec3::new(f64::INFINITY, 0.0, 1.0)), None);
         assert_eq!(unit(DVec3::new(0.0, 2.0, 0.0)), Some(DVec3::Y));
+        assert_eq!(unit(DVec3::new(0.0, 0.0, -1e300)), Some(DVec3::NEG_Z), "no overflow");
+        assert_eq!(unit(DVec3::new(1e-300, 0.0, 0.0)), Some(DVec3::X), "no underflow");
+        let d = unit(DVec3::splat(1e300)).expect("a direction");
+        assert!((d.length() - 1.0).abs() < 1e-15 && d.x == d.z, "{d}");
         let v = DVec3::new(0.6, 0.8, 0.0);
         assert_eq!(unit(v), Some(v));
     }
