@@ -161,7 +161,7 @@ enum Command {
         /// The view: eye x,y,z, target x,y,z, up x,y,z, fov in degrees (default: the kiosk's start).
         #[arg(long, conflicts_with = "node", allow_hyphen_values = true)]
         view: Option<String>,
-        /// A node of the exhibit's graph.xml whose view to render.
+        /// A node of the exhibit's graph.xml whose view to render (in its light, if it has one).
         #[arg(long)]
         node: Option<String>,
         /// Image size, WxH.
@@ -257,22 +257,25 @@ fn main() -> anyhow::Result<()> {
         Command::Snapshot { exhibit, view, node, size, output, splats, edl, tolerance } => {
             let store = kiosk::exhibit::open_model(&exhibit)?;
             let size = kiosk::snapshot::parse_size(&size)?;
-            let camera = match (view, node) {
-                (Some(v), _) => kiosk::snapshot::parse_view(&v)?,
+            // The view and its light: a node's stored light, else the light a visit starts with.
+            let start = kiosk_core::replay::initial_camera(&store, 0.8, kiosk::exhibit::model_up(&exhibit)?);
+            let start_light = kiosk::windows::start_light(&start);
+            let (camera, light) = match (view, node) {
+                (Some(v), _) => (kiosk::snapshot::parse_view(&v)?, start_light),
                 (None, Some(id)) => {
                     let (graph, _) = kiosk::exhibit::open_graph(&exhibit)?
                         .with_context(|| format!("{}: no graph.xml for --node", exhibit.display()))?;
                     let i = graph.index_of(&id).with_context(|| format!("no node '{id}' in the graph"))?;
-                    graph.nodes[i].view
+                    (graph.nodes[i].view, kiosk::windows::node_light(&graph.nodes[i], start_light))
                 }
-                (None, None) => {
-                    kiosk_core::replay::initial_camera(&store, 0.8, kiosk::exhibit::model_up(&exhibit)?)
-                }
+                (None, None) => (start, start_light),
             };
             let (gpu, mut renderer) = kiosk::snapshot::offscreen()?;
             gpu.check_size(size).with_context(|| format!("--size {}x{}", size.0, size.1))?;
-            let settings =
-                kiosk_render::RenderSettings { mode: splats, edl_strength: edl, ..Default::default() };
+            let settings = kiosk::windows::lit(
+                kiosk_render::RenderSettings { mode: splats, edl_strength: edl, ..Default::default() },
+                light,
+            );
             let image =
                 kiosk::snapshot::snapshot(&gpu, &mut renderer, &store, &camera, size, tolerance, &settings)?;
             image.save(&output).with_context(|| format!("cannot write {}", output.display()))?;

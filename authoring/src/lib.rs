@@ -286,6 +286,24 @@ impl Project {
         })
     }
 
+    /// Stores a light in a node's view (`None` removes it): a direction toward the user light in
+    /// model axes, any length; zero or not finite is refused. A go-to to the node turns the
+    /// kiosk's light to it.
+    pub fn set_light(&mut self, id: &str, light: Option<DVec3>) -> anyhow::Result<()> {
+        let light = match light {
+            Some(l) => Some(
+                kiosk_core::light::unit(l)
+                    .with_context(|| format!("node '{id}': light {l} must be finite and not zero"))?,
+            ),
+            None => None,
+        };
+        let i = self.index(id)?;
+        self.edit(|g| {
+            g.nodes[i].light = light;
+            Ok(())
+        })
+    }
+
     /// Replaces the whole graph (e.g. restoring an autosave), as one undoable edit.
     pub fn replace_graph(&mut self, graph: InfoGraph) -> anyhow::Result<()> {
         self.edit(|g| {

@@ -183,3 +183,28 @@ fn a_curator_turns_the_model_upright_and_the_kiosk_reads_it() {
     assert_eq!(broken.up, DVec3::Y);
     assert!(problems.iter().any(|p| p.msg.contains("diagonal")), "{problems:?}");
 }
+
+#[test]
+fn a_nodes_light_is_checked_normalised_and_undoable() {
+    let dir = exhibit();
+    let (mut p, _) = Project::open(dir.path()).expect("open");
+    let id = p.capture(orbit(&p, 0.0), Some("front"), None).expect("capture");
+    for bad in [DVec3::ZERO, DVec3::new(f64::NAN, 0.0, 1.0), DVec3::new(0.0, f64::INFINITY, 0.0)] {
+        let e = p.set_light(&id, Some(bad)).expect_err("refused");
+        assert!(e.to_string().contains("node 'front': light"), "{e}");
+    }
+    assert!(p.set_light("nope", Some(DVec3::X)).is_err());
+    assert_eq!(p.graph.nodes[0].light, None, "a refused light changes nothing");
+    p.set_light(&id, Some(DVec3::new(-3.0, 0.0, 4.0))).expect("light");
+    assert_eq!(p.graph.nodes[0].light, Some(DVec3::new(-0.6, 0.0, 0.8)));
+    p.save().expect("save");
+    let xml = std::fs::read_to_string(dir.path().join("graph.xml")).expect("saved");
+    assert!(xml.contains(r#"light="-0.6 0 0.8""#), "{xml}");
+    let (again, problems) = Project::open(dir.path()).expect("reopen");
+    assert!(problems.is_empty(), "{problems:?}");
+    assert_eq!(again.graph, p.graph);
+    p.set_light(&id, None).expect("remove");
+    assert_eq!(p.graph.nodes[0].light, None);
+    assert!(p.undo());
+    assert_eq!(p.graph.nodes[0].light, Some(DVec3::new(-0.6, 0.0, 0.8)));
+}

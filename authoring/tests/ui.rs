@@ -276,3 +276,54 @@ fn the_model_is_turned_upright_from_the_toolbar() {
     let cam = h.state().camera();
     assert!(cam.up.dot(glam::DVec3::Z) > 0.99, "the live view starts upright about Z: {}", cam.up);
 }
+
+#[test]
+fn a_views_light_is_steered_in_the_live_view_and_saved_with_it() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    copy_dir(&repo().join("content/demosthenes"), dir.path());
+    let before = std::fs::read_to_string(dir.path().join("graph.xml")).expect("graph");
+    let mut h = harness(dir.path());
+    click(&mut h, "intro — Demosthenes");
+    assert!(h.query_by_label("Light: the visitor's").is_some(), "no light stored yet");
+    let (cam, start) = (h.state().camera(), h.state().light);
+    // The Light tool: a drag far to the left makes a grazing light from the left; the camera stays.
+    click(&mut h, "Steer light");
+    drag_view(&mut h, -500.0, 0.0);
+    let light = h.state().light;
+    assert_ne!(light.dir, start.dir, "the drag moved the light");
+    let (back, right) = (-cam.forward(), cam.right());
+    assert!(
+        light.dir.dot(back).abs() < 1e-9 && light.dir.dot(right) < -0.9,
+        "raking from the left: {}",
+        light.dir
+    );
+    assert_eq!(h.state().camera(), cam, "the Light tool does not move the camera");
+    assert_eq!(light.mix, kiosk_core::light::ACTIVE_MIX);
+    click(&mut h, "Set light from live view");
+    let i = h.state().project.graph.index_of("intro").expect("intro");
+    assert_eq!(h.state().project.graph.nodes[i].light, Some(light.dir));
+    click(&mut h, "Save");
+    let after = std::fs::read_to_string(dir.path().join("graph.xml")).expect("graph");
+    let (graph, problems) = kiosk::exhibit::open_graph(dir.path()).expect("read").expect("graph.xml");
+    assert!(problems.is_empty(), "{problems:?}");
+    assert_eq!(graph.nodes[i].light, Some(light.dir), "the saved light reads back exactly");
+    assert!(after.contains(" light=\""), "{after}");
+    // Only the intro was written anew: every other node and edge is as it was, byte for byte.
+    let items = |text: &str| -> Vec<String> {
+        text.split("\n  <")
+            .skip(1)
+            .map(|s| s.to_string())
+            .filter(|s| !s.starts_with("node id=\"intro\""))
+            .collect()
+    };
+    assert_eq!(items(&after), items(&before));
+    // Another view, then back to the intro: the live view takes the stored light.
+    click(&mut h, "face — A tense face");
+    h.state_mut().light = start;
+    click(&mut h, "intro — Demosthenes");
+    assert_eq!(h.state().light.dir, light.dir, "going to the view takes its light");
+    click(&mut h, "Remove light");
+    assert_eq!(h.state().project.graph.nodes[i].light, None);
+    click(&mut h, "Undo");
+    assert_eq!(h.state().project.graph.nodes[i].light, Some(light.dir));
+}

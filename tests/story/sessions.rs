@@ -492,3 +492,44 @@ fn the_hidden_nudge_moves_each_controller_toward_the_attracting_view() {
         }
     }
 }
+
+#[test]
+fn a_go_to_turns_the_light_to_a_nodes_stored_light_and_keeps_the_light_without_one() {
+    use kiosk_core::light::{ACTIVE_MIX, DEFAULT_MIX};
+    let ex = exhibit();
+    // Proposed at ~11 s, accepted at ~12.7 s, flown to, displayed.
+    let script = Script::new().wait(12.0).down(1, 0.5, 0.5).wait(1.0).up(1, 0.5, 0.5).wait(3.0).cancel(99);
+    let stored = DVec3::new(-1.0, 0.1, 0.0).normalize_or_zero();
+    let mut lit = ex.orbited("back", 180.0);
+    lit.light = Some(stored);
+    let t = ex.run(&graph(vec![lit]), &script);
+    assert_eq!(t.summary.nodes_displayed, ["back"], "{:?}", states(&t));
+    let light = |f: &kiosk_core::replay::Frame| DVec3::from_array(f.light);
+    let start = light(&t.frames[0]);
+    let first_goto = t.frames.iter().position(|f| f.recommender.as_deref() == Some("go-to")).expect("go-to");
+    let first_display =
+        t.frames.iter().position(|f| f.recommender.as_deref() == Some("display")).expect("display");
+    for f in &t.frames[..first_goto] {
+        assert_eq!((light(f), f.light_mix), (start, DEFAULT_MIX), "before the go-to, at {}", f.t);
+    }
+    // During the go-to the light turns toward the node's, never away, without a jump; it is the
+    // node's exactly when the view is.
+    let angles: Vec<f64> =
+        t.frames[first_goto..=first_display].iter().map(|f| light(f).angle_between(stored)).collect();
+    assert!(angles.len() > 10, "the go-to lasts several frames");
+    for w in angles.windows(2) {
+        assert!(w[1] <= w[0] + 1e-12 && w[0] - w[1] < 0.1, "{w:?}");
+    }
+    assert!(angles[angles.len() / 2] > 1e-3 && angles[angles.len() / 2] < angles[0], "eased: {angles:?}");
+    for f in &t.frames[first_display..] {
+        assert_eq!(light(f), stored, "displayed in the node's light, at {}", f.t);
+    }
+    let last = t.frames.last().expect("frames");
+    assert!((last.light_mix - ACTIVE_MIX).abs() < 1e-3, "the stored light dominates: {}", last.light_mix);
+    // The same story without a stored light: the light never moves.
+    let t = ex.run(&graph(vec![ex.orbited("back", 180.0)]), &script);
+    assert_eq!(t.summary.nodes_displayed, ["back"]);
+    for f in &t.frames {
+        assert_eq!((light(f), f.light_mix), (start, DEFAULT_MIX), "at {}", f.t);
+    }
+}

@@ -3,6 +3,7 @@
 //! with an accelerated (simulated) clock.
 
 use kiosk::MappedStore;
+use kiosk_core::gesture::TouchKind;
 use kiosk_core::graph::InfoGraph;
 use kiosk_core::kiosk::{KioskEffect, KioskFrame, KioskSettings, Mode, ModelRef, run_session};
 use kiosk_core::session::Script;
@@ -336,5 +337,164 @@ fn a_z_up_model_starts_upright_and_stays_upright() {
         }
         let first = glam::DVec3::from_array(explored[0].up);
         assert!(first.dot(up) > 0.99, "up {up}: the exploration starts upright ({first})");
+    }
+}
+
+/// The light button's place on the controller (centre).
+const LIGHT_BUTTON: (f64, f64) = (0.56, 0.07);
+
+fn light_of(f: &KioskFrame) -> glam::DVec3 {
+    glam::DVec3::from_array(f.explore.as_ref().expect("exploring").light)
+}
+
+fn eye_of(f: &KioskFrame) -> [f64; 3] {
+    f.explore.as_ref().expect("exploring").eye
+}
+
+/// The frame's view axes: toward the viewer and to the right.
+fn view_axes(f: &KioskFrame) -> (glam::DVec3, glam::DVec3) {
+    let e = f.explore.as_ref().expect("exploring");
+    let (eye, target, up) =
+        (glam::DVec3::from_array(e.eye), glam::DVec3::from_array(e.target), glam::DVec3::from_array(e.up));
+    let back = (eye - target).normalize_or_zero();
+    (back, (-back).cross(up).normalize_or_zero())
+}
+
+/// A visitor steers the light: a drag from the Light button, then the button tapped on and a
+/// one-finger drag (a second finger ignored), then off again (drags move the camera); nobody
+/// touches and the attract loop brings the start light back.
+fn light_script() -> Script {
+    let (bx, by) = LIGHT_BUTTON;
+    Script::new()
+        .wait(0.2)
+        .tap(1, 0.5, 0.86)
+        .wait(0.5)
+        // From the button, far to the right and a little down: a raking light from the right.
+        .swipe(2, (bx, by), (0.95, 0.3), 0.6)
+        .wait(0.5)
+        .tap(3, bx, by)
+        .wait(0.3)
+        .down(4, 0.5, 0.5)
+        .down(5, 0.7, 0.6)
+        .drag(&[(4, (0.5, 0.5), (0.3, 0.3)), (5, (0.7, 0.6), (0.9, 0.6))], 0.5)
+        .up(4, 0.3, 0.3)
+        .up(5, 0.9, 0.6)
+        .wait(0.3)
+        .tap(3, bx, by)
+        .wait(0.3)
+        .joystick(6, (0.2, 0.0), 1.0)
+        .wait(0.5)
+        .cancel(99)
+}
+
+#[test]
+fn the_light_button_steers_the_light_and_the_attract_loop_brings_it_back() {
+    use kiosk_core::light::{ACTIVE_MIX, DEFAULT_MIX};
+    let d = demo();
+    let settings =
+        KioskSettings { attract_after_secs: 5.0, reset_after_secs: 400.0, ..KioskSettings::default() };
+    let script = light_script();
+    let frames = d.run(&script, &settings, 12.0);
+    let times: Vec<f64> = script.events.iter().filter(|e| e.ev != TouchKind::Move).map(|e| e.t).collect();
+    // Downs and ups: explore tap (0, 1), swipe (2, 3), tap on (4, 5), two fingers (6–9), tap off
+    // (10, 11), joystick (12, 13).
+    let before = at(&frames, times[2] - 0.05);
+    let start = light_of(before);
+    assert_eq!(before.explore.as_ref().map(|e| e.light_mix), Some(DEFAULT_MIX));
+    assert!((start.length() - 1.0).abs() < 1e-12);
+    // The drag from the button: the light grazes the view from the right; the camera stayed.
+    let swiped = at(&frames, times[3] + 0.05);
+    let raking = light_of(swiped);
+    let (back, right) = view_axes(swiped);
+    assert!(raking.dot(back).abs() < 1e-9, "a grazing light: {raking} · {back} = {}", raking.dot(back));
+    assert!(raking.dot(right) > 0.8, "from the right: {raking}");
+    assert_eq!(eye_of(swiped), eye_of(before), "the drag from the button moved the camera");
+    assert!(!swiped.light_on, "a drag from the button does not switch the light on");
+    // Tapped: on. One finger steers the light; the second is ignored (the camera stays).
+    let on = at(&frames, times[5] + 0.1);
+    assert!(on.light_on);
+    assert_eq!(light_of(on), raking, "a tap does not move the light");
+    let dragged = at(&frames, times[9] + 0.05);
+    assert!(dragged.light_on);
+    let up_left = light_of(dragged);
+    assert!((up_left - raking).length() > 0.5, "the one-finger drag moved the light: {up_left}");
+    let (back, right) = view_axes(dragged);
+    let up = back.cross(right);
+    assert!(up_left.dot(up) > 0.0 && up_left.dot(right) < raking.dot(right), "{up_left}");
+    assert_eq!(eye_of(dragged), eye_of(on), "with the light on, fingers do not move the camera");
+    assert!((dragged.explore.as_ref().expect("exploring").light_mix - ACTIVE_MIX).abs() < 1e-3);
+    // Off again: the joystick moves the camera; the light stays where the visitor put it.
+    let off = at(&frames, times[11] + 0.05);
+    assert!(!off.light_on);
+    let moved = at(&frames, times[13]);
+    assert_ne!(eye_of(moved), eye_of(off), "the joystick moves the camera again");
+    assert_eq!(light_of(moved), up_left, "the light stays in the model's axes");
+    // Nobody: the attract loop eases the start light back, the headlight dominating again.
+    let last = frames.last().expect("frames");
+    assert_eq!(last.mode, Mode::Attract);
+    assert!(!last.light_on);
+    let attract = frames.iter().position(|f| f.mode == Mode::Attract).expect("attract");
+    for w in frames[attract..].windows(2) {
+        let step = light_of(&w[1]).angle_between(light_of(&w[0]));
+        assert!(step < 0.05, "the light eases back (jumped {step} rad at {})", w[1].t);
+    }
+    assert!(light_of(last).angle_between(start) < 1e-9, "the start light is back: {}", light_of(last));
+    assert_eq!(last.explore.as_ref().map(|e| e.light_mix), Some(DEFAULT_MIX));
+}
+
+#[test]
+fn a_session_with_light_drags_replays_byte_for_byte_and_traces_the_light() {
+    let d = demo();
+    let settings =
+        KioskSettings { attract_after_secs: 5.0, reset_after_secs: 400.0, ..KioskSettings::default() };
+    // Through the session file format, as `--record` writes it and `--session` reads it.
+    let session = kiosk_core::session::Session::parse(&light_script().session().to_jsonl()).expect("session");
+    let refs: Vec<ModelRef<'_, memmap2::Mmap>> =
+        d.models.iter().map(|(s, g)| ModelRef { store: s, graph: Some(g), up: glam::DVec3::Y }).collect();
+    let trace = || -> String {
+        run_session(&refs, &session, &settings, 3.0)
+            .iter()
+            .map(|f| serde_json::to_string(f).expect("json") + "\n")
+            .collect()
+    };
+    let (a, b) = (trace(), trace());
+    assert!(a == b, "two replays of the same session differ");
+    let lines: Vec<serde_json::Value> = a.lines().map(|l| serde_json::from_str(l).expect("json")).collect();
+    let lights: Vec<&serde_json::Value> = lines.iter().filter_map(|l| l["explore"].get("light")).collect();
+    assert!(!lights.is_empty() && lights.iter().all(|l| l.as_array().is_some_and(|a| a.len() == 3)));
+    let mut distinct: Vec<String> = lights.iter().map(|l| l.to_string()).collect();
+    distinct.dedup();
+    assert!(distinct.len() > 10, "the trace follows the light as it moves: {} values", distinct.len());
+    assert!(lines.iter().any(|l| l["light_on"] == true), "the light button's state is traced");
+    assert!(lines.iter().all(|l| l["explore"].is_null() || l["explore"]["light_mix"].is_f64()));
+}
+
+#[test]
+fn a_recorded_visit_without_light_still_replays_with_the_start_light() {
+    // tests/sessions/kiosk-visit.jsonl was recorded before the light button existed.
+    let d = demo();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/sessions/kiosk-visit.jsonl");
+    let session = kiosk_core::session::Session::parse(&std::fs::read_to_string(&path).expect("read"))
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut settings = KioskSettings::default();
+    settings.explore.seed = session.header.as_ref().and_then(|h| h.seed).unwrap_or(0);
+    let refs: Vec<ModelRef<'_, memmap2::Mmap>> =
+        d.models.iter().map(|(s, g)| ModelRef { store: s, graph: Some(g), up: glam::DVec3::Y }).collect();
+    let frames = run_session(&refs, &session, &settings, 1.0);
+    let a = serde_json::to_string(&frames).expect("json");
+    assert_eq!(a, serde_json::to_string(&run_session(&refs, &session, &settings, 1.0)).expect("json"));
+    assert!(frames.iter().all(|f| !f.light_on), "nobody touched the light");
+    let explored: Vec<&KioskFrame> = frames.iter().filter(|f| f.explore.is_some()).collect();
+    assert!(explored.len() > 1000, "the visit explores");
+    assert!(
+        frames.iter().any(|f| f.explore.as_ref().and_then(|e| e.overlay.as_ref()).is_some()),
+        "the visit still reaches its views"
+    );
+    // Every exploration keeps the light it started with (the demo views store none).
+    for w in explored.windows(2) {
+        if w[0].model == w[1].model {
+            assert_eq!(light_of(w[0]), light_of(w[1]), "the light moved at {}", w[1].t);
+            assert_eq!(w[1].explore.as_ref().map(|e| e.light_mix), Some(kiosk_core::light::DEFAULT_MIX));
+        }
     }
 }

@@ -15,6 +15,10 @@
 //! camera eases back to the bound ([`DISTANCE_EASE_SECS`]), moving straight toward the centre
 //! with its view direction kept.
 //!
+//! The light ([`crate::light`]): the exploration holds the user light's direction and weight,
+//! steered by the visitor ([`Explorer::light_drag`]), turned by go-tos to nodes with a stored
+//! light, eased back by the attract loop ([`Explorer::restore_light`]); each frame traces it.
+//!
 //! The recommender's hidden guidance (thesis 11.4.1) is applied per controller
 //! ([`guide_intent`]): IsoCam hovers with two-finger pan too and moves the eye with the input;
 //! the trackballs keep pan as a pan and move the eye against the input.
@@ -24,6 +28,7 @@ use crate::camera::{ControllerKind, initial_camera, make_controller};
 use crate::gesture::GestureSettings;
 use crate::gesture::{Gestures, MenuEvent, TouchEvent};
 use crate::graph::InfoGraph;
+use crate::light::{ACTIVE_MIX, DEFAULT_MIX, Light, LightEase, LightPad, RESTORE_SECS};
 use crate::recommend::{
     Effect, RecEvent, RecState, Recommender, Sense, ViewContext, ViewIndex, radial_candidates, slot_for_angle,
 };
@@ -155,6 +160,11 @@ pub struct Explorer {
     center: DVec3,
     max_distance: f64,
     tolerance: f64,
+    light: Light,
+    light_target_mix: f64,
+    light_ease: Option<LightEase>,
+    light_pad: Option<LightPad>,
+    start_light: DVec3,
     /// Counts over the exploration.
     pub summary: Summary,
     /// When set, proposals are accepted without a visitor (the kiosk's attract loop).
@@ -192,6 +202,7 @@ impl Explorer {
             Controller::IsoCam(c) => c.settings.reproject_tolerance,
             _ => 0.01,
         };
+        let start_light = crate::light::start_dir(&cam0);
         Self {
             settings: *settings,
             rng: rand_pcg::Pcg64::seed_from_u64(settings.seed),
@@ -209,6 +220,11 @@ impl Explorer {
             center,
             max_distance,
             tolerance,
+            light: Light { dir: start_light, mix: DEFAULT_MIX },
+            light_target_mix: DEFAULT_MIX,
+            light_ease: None,
+            light_pad: None,
+            start_light,
             summary: Summary { min_surface_distance: f64::INFINITY, ..Summary::default() },
             autopilot: false,
         }
@@ -234,6 +250,59 @@ impl Explorer {
     /// The camera shown (the go-to animation's while one runs).
     pub fn camera(&self) -> Camera {
         self.camera
+    }
+
+    /// The light of the last frame (what the renderer shows).
+    pub fn light(&self) -> Light {
+        self.light
+    }
+
+    /// Where the light is on the steering pad of the current view (centre: from the eye; rim:
+    /// grazing), for the controller's light indicator.
+    pub fn light_pad(&self) -> glam::DVec2 {
+        crate::light::to_pad(&self.camera, self.light.dir)
+    }
+
+    /// Whether a finger steers the light.
+    pub fn light_dragging(&self) -> bool {
+        self.light_pad.is_some()
+    }
+
+    /// A finger starts steering the light (from where it is now, as seen from the current view):
+    /// any animation of it stops and the user light comes to dominate.
+    pub fn light_drag_start(&mut self) {
+        self.light_pad = Some(LightPad::start(&self.camera, self.light.dir));
+        self.light_ease = None;
+        self.light_target_mix = ACTIVE_MIX;
+    }
+
+    /// The steering finger moved by `(dx, dy)` (controller widths and heights, y down); starts a
+    /// drag if none runs.
+    pub fn light_drag(&mut self, dx: f64, dy: f64) {
+        if dx == 0.0 && dy == 0.0 && self.light_pad.is_some() {
+            return;
+        }
+        if self.light_pad.is_none() {
+            self.light_drag_start();
+        }
+        let aspect = self.settings.gestures.aspect;
+        if let Some(pad) = self.light_pad.as_mut() {
+            self.light.dir = pad.drag(&self.camera, dx, dy, aspect);
+        }
+    }
+
+    /// The steering finger lifted: the light stays where it is.
+    pub fn light_drag_end(&mut self) {
+        self.light_pad = None;
+    }
+
+    /// The attract loop: the light eases back to the one the exploration started with, the
+    /// headlight dominating again (a go-to to a node with a light still turns it).
+    pub fn restore_light(&mut self, t: f64) {
+        self.light_pad = None;
+        self.light_target_mix = DEFAULT_MIX;
+        self.light_ease =
+            Some(LightEase { from: self.light.dir, to: self.start_light, start: t, duration: RESTORE_SECS });
     }
 
     /// The current cut.
@@ -427,6 +496,15 @@ impl Explorer {
                             to.fov_y = settings.fov_y;
                         }
                         self.goto = Some(GoTo { from: self.controller.camera(), to, start: t, duration });
+                        // The node's light, if it has one, turns with the camera; else the light
+                        // stays. A finger on the light keeps it.
+                        if let Some(light) = g.nodes[node].light
+                            && self.light_pad.is_none()
+                        {
+                            self.light_ease =
+                                Some(LightEase { from: self.light.dir, to: light, start: t, duration });
+                            self.light_target_mix = ACTIVE_MIX;
+                        }
                     }
                     Effect::ShowOverlay { node } => {
                         self.summary.nodes_displayed.push(g.nodes[node].id.clone())
@@ -450,6 +528,14 @@ impl Explorer {
             None => self.controller.camera(),
         };
         self.camera = cam;
+        if let Some(e) = self.light_ease {
+            let (dir, done) = e.at(t);
+            self.light.dir = dir;
+            if done {
+                self.light_ease = None;
+            }
+        }
+        self.light.mix = crate::light::ease_mix(self.light.mix, self.light_target_mix, dt);
         if let Some(v) = cam.view_params(store, settings.size_px) {
             self.cut.update(store, &v, &settings.cut);
         }
@@ -497,6 +583,8 @@ impl Explorer {
                 candidates: self.menu.iter().flat_map(|m| &m.candidates).filter_map(|&i| id(i)).collect(),
             }),
             cut_nodes: self.cut.nodes().len(),
+            light: self.light.dir.to_array(),
+            light_mix: self.light.mix,
         };
         (frame, effects)
     }

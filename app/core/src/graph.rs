@@ -6,7 +6,7 @@
 //! ```xml
 //! <infograph version="1" default-lang="en">
 //!   <node id="intro" importance="1.0">
-//!     <view eye="0 1 3" target="0 1 0" up="0 1 0" fov="0.8"/>
+//!     <view eye="0 1 3" target="0 1 0" up="0 1 0" fov="0.8" light="-1 0.2 0.3"/>
 //!     <title lang="en">The bust</title>
 //!     <title lang="it">Il busto</title>
 //!     <text lang="en">Demosthenes, Athenian orator…</text>
@@ -18,6 +18,10 @@
 //!   <edge from="intro" to="beard" weight="1.0"/>
 //! </infograph>
 //! ```
+//! A view's `light` (optional) is the direction toward the user light in model axes, any length
+//! (normalised when read; zero or non-finite: ignored with a problem); a go-to to the node turns
+//! the light to it ([`crate::light`]).
+//!
 //! Loading is lenient, as a kiosk must keep showing what is valid: structural problems drop the
 //! offending node or edge and are reported with the node's id; only unreadable XML or an unknown
 //! version is fatal.
@@ -60,6 +64,9 @@ pub struct Node {
     pub id: String,
     /// The view (model coordinates).
     pub view: Camera,
+    /// The view's light: unit direction toward the user light (model axes), if the curator
+    /// stored one (`<view … light="x y z"/>`).
+    pub light: Option<DVec3>,
     /// Author importance γ ∈ [0, 1].
     pub importance: f64,
     /// Title per language.
@@ -185,6 +192,7 @@ impl Node {
         Self {
             id: id.into(),
             view,
+            light: None,
             importance: 1.0,
             title: PerLanguage::default(),
             text: PerLanguage::default(),
@@ -287,6 +295,8 @@ struct RawView {
     up: String,
     #[serde(rename = "@fov")]
     fov: String,
+    #[serde(rename = "@light", default, skip_serializing_if = "Option::is_none")]
+    light: Option<String>,
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -438,6 +448,21 @@ impl InfoGraph {
             if (up.length() - 1.0).abs() > 1e-9 || up.dot(view.forward()).abs() > 1e-9 {
                 view.up = orthonormal_up(view.forward(), up, DVec3::Y);
             }
+            // A bad light is the light's problem only: the node keeps its view without one.
+            let light = v.light.as_deref().and_then(|l| {
+                let d = vec3(l).and_then(crate::light::unit);
+                if d.is_none() {
+                    bad(
+                        Some(&id),
+                        format!(
+                            "view light {:?} must be three finite numbers, not all zero; ignored",
+                            l.chars().take(80).collect::<String>()
+                        ),
+                        false,
+                    );
+                }
+                d
+            });
             let mut importance = number(&n.importance).unwrap_or_else(|| {
                 bad(
                     Some(&id),
@@ -503,6 +528,7 @@ impl InfoGraph {
             nodes.push(Node {
                 id,
                 view,
+                light,
                 importance,
                 title,
                 text,
@@ -652,6 +678,7 @@ impl InfoGraph {
                 target: fmt3(n.view.target),
                 up: fmt3(n.view.up),
                 fov: n.view.fov_y.to_string(),
+                light: n.light.map(fmt3),
             }),
             titles: texts(&n.title),
             texts: texts(&n.text),
@@ -1021,6 +1048,67 @@ mod tests {
         );
         let (again, _) = InfoGraph::from_xml(&xml).expect("own output");
         assert_eq!(again, edited, "{xml}");
+    }
+
+    #[test]
+    fn a_views_light_is_read_normalised_checked_and_saved() {
+        let xml = r#"<infograph version="1">
+  <!-- lights -->
+  <node id="raking"><view eye="0 0 3" target="0 0 0" up="0 1 0" fov="0.8" light="-2 0 0.5"/></node>
+  <node id="unit"><view eye="0 0 3" target="0 0 0" up="0 1 0" fov="0.8" light="0.6 0.8 0"/></node>
+  <node id="zero"><view eye="0 0 3" target="0 0 0" up="0 1 0" fov="0.8" light="0 0 0"/></node>
+  <node id="nan"><view eye="0 0 3" target="0 0 0" up="0 1 0" fov="0.8" light="NaN 1 0"/></node>
+  <node id="short"><view eye="0 0 3" target="0 0 0" up="0 1 0" fov="0.8" light="1 2"/></node>
+  <node id="none"><view eye="0 0 3" target="0 0 0" up="0 1 0" fov="0.8"/></node>
+</infograph>
+"#;
+        let (g, problems) = InfoGraph::from_xml(xml).expect("readable");
+        let text: Vec<String> = problems.iter().map(ToString::to_string).collect();
+        // A bad light is that node's problem: the node stays, without a light.
+        assert_eq!(g.nodes.len(), 6, "{text:?}");
+        for id in ["zero", "nan", "short"] {
+            assert!(
+                text.iter()
+                    .any(|t| t.starts_with(&format!("node '{id}': view light")) && t.contains("ignored")),
+                "{id}: {text:?}"
+            );
+            assert_eq!(g.nodes[g.index_of(id).expect("kept")].light, None, "{id}");
+        }
+        assert!(problems.iter().all(|p| !p.dropped), "{text:?}");
+        assert_eq!(problems.len(), 3, "{text:?}");
+        let raking = g.nodes[0].light.expect("light");
+        assert!((raking - DVec3::new(-2.0, 0.0, 0.5).normalize_or_zero()).length() < 1e-15, "{raking}");
+        assert!((raking.length() - 1.0).abs() < 1e-12);
+        assert_eq!(g.nodes[1].light, Some(DVec3::new(0.6, 0.8, 0.0)), "a unit light is kept as written");
+        assert_eq!(g.nodes[5].light, None);
+        // Written and read back: the same lights, exactly.
+        let (again, _) = InfoGraph::from_xml(&g.to_xml()).expect("own output");
+        assert_eq!(again, g);
+        // Saved over the file: untouched nodes stay byte for byte (the bad lights too); a node
+        // given a light gets the attribute, one whose light is removed loses it.
+        assert_eq!(g.to_xml_over(xml).expect("save"), xml);
+        let mut edited = g.clone();
+        edited.nodes[5].light = Some(DVec3::new(0.0, 0.0, -1.0));
+        edited.nodes[1].light = None;
+        let over = edited.to_xml_over(xml).expect("save");
+        for kept in ["<!-- lights -->", r#"light="-2 0 0.5""#, r#"light="0 0 0""#, r#"light="NaN 1 0""#] {
+            assert!(over.contains(kept), "lost {kept}:\n{over}");
+        }
+        assert!(over.contains(r#"light="0 0 -1""#) && !over.contains(r#"light="0.6 0.8 0""#), "{over}");
+        let (back, _) = InfoGraph::from_xml(&over).expect("own output");
+        assert_eq!(back, edited);
+    }
+
+    #[test]
+    fn the_readmes_example_graph_loads_with_its_light() {
+        let readme = include_str!("../../../README.md");
+        let start = readme.find("```xml\n").expect("an XML example in the README") + 7;
+        let end = start + readme[start..].find("```").expect("its end");
+        let (g, problems) = InfoGraph::from_xml(&readme[start..end]).expect("README's graph.xml");
+        assert!(problems.is_empty(), "{problems:?}");
+        let beard = &g.nodes[g.index_of("beard").expect("beard")];
+        let light = beard.light.expect("the example's light");
+        assert!((light.length() - 1.0).abs() < 1e-12 && light.x < 0.0, "{light}");
     }
 
     /// Inputs the fuzzer found (fuzz/run graph_xml): a file that loads can be saved over.

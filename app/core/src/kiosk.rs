@@ -3,6 +3,12 @@
 //! after inactivity (the recommender tours the model on its own), and the reset to the gallery,
 //! its first model and the default language after a longer inactivity.
 //!
+//! The light button (while exploring): a finger that lands on it steers the light
+//! ([`crate::light`]) until it lifts, wherever it goes; a tap on it switches the light on, and
+//! then every one-finger drag steers the light (other fingers are ignored) until it is tapped
+//! again, the visitor goes back to the gallery or the attract loop starts (which eases the
+//! light back to the start light; the reset starts the next visit with it).
+//!
 //! Pure like the rest of the core: the shell hands in touch events and times; the kiosk hands back
 //! what to draw and what to play. A recorded session replayed through [`run_session`] gives the
 //! same frames as the live kiosk did.
@@ -53,6 +59,8 @@ pub enum ButtonKind {
     Next,
     /// Explore the gallery's current model.
     Explore,
+    /// Steer the light: drag from it, or tap it to make one-finger drags steer the light.
+    Light,
 }
 
 /// A button and where it is on the controller surface (normalised, origin top-left).
@@ -73,6 +81,7 @@ impl Button {
 
 const BACK: Button = Button { kind: ButtonKind::Back, rect: [0.0, 0.0, 0.16, 0.14] };
 const HELP: Button = Button { kind: ButtonKind::Help, rect: [0.84, 0.0, 1.0, 0.14] };
+const LIGHT: Button = Button { kind: ButtonKind::Light, rect: [0.48, 0.0, 0.64, 0.14] };
 const LANGUAGE: Button = Button { kind: ButtonKind::Language, rect: [0.66, 0.0, 0.82, 0.14] };
 const PREVIOUS: Button = Button { kind: ButtonKind::Previous, rect: [0.0, 0.3, 0.12, 0.7] };
 const NEXT: Button = Button { kind: ButtonKind::Next, rect: [0.88, 0.3, 1.0, 0.7] };
@@ -82,7 +91,7 @@ const EXPLORE: Button = Button { kind: ButtonKind::Explore, rect: [0.3, 0.78, 0.
 pub fn buttons(mode: Mode) -> &'static [Button] {
     match mode {
         Mode::Gallery => &[LANGUAGE, PREVIOUS, NEXT, EXPLORE],
-        Mode::Explore => &[BACK, LANGUAGE, HELP],
+        Mode::Explore => &[BACK, LIGHT, LANGUAGE, HELP],
         Mode::Attract => &[],
     }
 }
@@ -161,7 +170,17 @@ enum Route {
         y0: f64,
         moved: f64,
     },
-    /// The touch that woke the kiosk from the attract loop: spent.
+    /// A finger steering the light: where it landed and when, where it was last, how far it
+    /// went, and whether it landed on the light button.
+    Light {
+        t0: f64,
+        from: (f64, f64),
+        last: (f64, f64),
+        moved: f64,
+        on_button: bool,
+    },
+    /// The touch that woke the kiosk from the attract loop, or a finger ignored while another
+    /// steers the light: spent.
     Spent,
 }
 
@@ -178,6 +197,9 @@ pub struct KioskFrame {
     pub lang: String,
     /// Whether the help is shown.
     pub help: bool,
+    /// Whether the light button is on (one-finger drags steer the light).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub light_on: bool,
     /// Seconds until the reset (attract loop).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub countdown: Option<f64>,
@@ -199,6 +221,7 @@ pub struct Kiosk {
     explorers: Vec<Option<Explorer>>,
     lang: usize,
     help: bool,
+    light_on: bool,
     last_input: f64,
     now: f64,
     routes: BTreeMap<i64, Route>,
@@ -222,6 +245,7 @@ impl Kiosk {
             explorers: (0..models).map(|_| None).collect(),
             lang: 0,
             help: false,
+            light_on: false,
             last_input: now,
             now,
             routes: BTreeMap::new(),
@@ -310,6 +334,16 @@ impl Kiosk {
         self.help
     }
 
+    /// Whether the light button is on: one-finger drags steer the light.
+    pub fn light_on(&self) -> bool {
+        self.light_on
+    }
+
+    /// Whether a finger steers the light now (from the button, or with the light on).
+    pub fn light_active(&self) -> bool {
+        self.light_on || self.routes.values().any(|r| matches!(r, Route::Light { .. }))
+    }
+
     /// The exploration of the current model, while exploring or attracting.
     pub fn explorer(&self) -> Option<&Explorer> {
         match self.mode {
@@ -349,8 +383,10 @@ impl Kiosk {
                 }
                 self.mode = Mode::Gallery;
                 self.help = false;
+                self.light_on = false;
             }
             ButtonKind::Help => self.help = !self.help,
+            ButtonKind::Light => self.light_on = !self.light_on,
             ButtonKind::Language => {
                 self.lang = (self.lang + 1) % self.settings.languages.len().max(1);
                 if let Some((model, node)) = self.narrating {
@@ -392,15 +428,38 @@ impl Kiosk {
                     }
                     Route::Spent
                 }
-                mode => match buttons(mode).iter().find(|b| b.contains(e.x, e.y)) {
-                    Some(b) if !self.routes.values().any(|r| *r == Route::Explorer) => Route::Button(b.kind),
-                    _ if mode == Mode::Gallery => Route::Gallery { t0: e.t, x0: e.x, y0: e.y, moved: 0.0 },
-                    _ => Route::Explorer,
-                },
+                mode => {
+                    let exploring = self.routes.values().any(|r| *r == Route::Explorer);
+                    let lighting = self.routes.values().any(|r| matches!(r, Route::Light { .. }));
+                    let light = |on_button| Route::Light {
+                        t0: e.t,
+                        from: (e.x, e.y),
+                        last: (e.x, e.y),
+                        moved: 0.0,
+                        on_button,
+                    };
+                    match buttons(mode).iter().find(|b| b.contains(e.x, e.y)) {
+                        Some(b) if b.kind == ButtonKind::Light && !exploring && !lighting => light(true),
+                        Some(b) if !exploring && !lighting => Route::Button(b.kind),
+                        _ if mode == Mode::Gallery => {
+                            Route::Gallery { t0: e.t, x0: e.x, y0: e.y, moved: 0.0 }
+                        }
+                        // With the light on, one finger steers it; others are ignored.
+                        _ if self.light_on && !exploring && !lighting => light(false),
+                        _ if self.light_on || lighting => Route::Spent,
+                        _ => Route::Explorer,
+                    }
+                }
             };
             self.routes.insert(e.id, route);
-            if route == Route::Explorer {
-                self.feed_explorer(e);
+            match route {
+                Route::Explorer => self.feed_explorer(e),
+                Route::Light { .. } => {
+                    if let Some(x) = self.explorers.get_mut(self.model).and_then(Option::as_mut) {
+                        x.light_drag_start();
+                    }
+                }
+                _ => {}
             }
             return;
         }
@@ -444,6 +503,32 @@ impl Kiosk {
                     }
                 }
             }
+            Route::Light { t0, from, last, moved, on_button } => {
+                let (dx, dy) = (e.x - last.0, e.y - last.1);
+                *last = (e.x, e.y);
+                *moved = moved.max((e.x - from.0).hypot(e.y - from.1));
+                let (t0, moved, on_button) = (*t0, *moved, *on_button);
+                let x = self.explorers.get_mut(self.model).and_then(Option::as_mut);
+                if let Some(x) = x {
+                    if e.ev == TouchKind::Move || e.ev == TouchKind::Up {
+                        x.light_drag(dx, dy);
+                    }
+                    if end {
+                        x.light_drag_end();
+                    }
+                }
+                if end {
+                    self.routes.remove(&e.id);
+                    // A tap on the button switches the light on or off.
+                    if on_button
+                        && e.ev == TouchKind::Up
+                        && e.t - t0 <= self.settings.tap_max_secs
+                        && moved <= self.settings.tap_max_move
+                    {
+                        self.press(ButtonKind::Light);
+                    }
+                }
+            }
             Route::Spent => {
                 if end {
                     self.routes.remove(&e.id);
@@ -483,6 +568,7 @@ impl Kiosk {
         self.model = 0;
         self.lang = 0;
         self.help = false;
+        self.light_on = false;
         self.routes.clear();
         for e in &mut self.explorers {
             *e = None;
@@ -506,6 +592,10 @@ impl Kiosk {
         } else if !touched && self.mode == Mode::Explore && idle >= self.settings.attract_after_secs {
             self.mode = Mode::Attract;
             self.help = false;
+            self.light_on = false;
+            if let Some(x) = self.explorers.get_mut(self.model).and_then(Option::as_mut) {
+                x.restore_light(t);
+            }
         }
         let mut frame = None;
         if self.mode != Mode::Gallery
@@ -576,6 +666,7 @@ impl Kiosk {
             model: self.model,
             lang: self.lang().to_string(),
             help: self.help,
+            light_on: self.light_on,
             countdown: self.countdown(),
             explore: frame,
             effects: std::mem::take(&mut self.pending),

@@ -11,6 +11,7 @@ pub mod geom;
 pub mod gesture;
 pub mod graph;
 pub mod kiosk;
+pub mod light;
 pub mod recommend;
 pub mod replay;
 pub mod scene;

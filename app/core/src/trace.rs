@@ -1,5 +1,6 @@
 //! The trace of an exploration: one JSON line per frame of the fixed 60 Hz clock (eye, target,
-//! up, distance to the surface, the controller's and the recommender's state, the node, the menu),
+//! up, distance to the surface, the controller's and the recommender's state, the node, the menu,
+//! the light),
 //! a header line and a summary line. Written by `kiosk replay` and the kiosk's `--trace`; same
 //! store, session, settings and seed → byte-identical trace.
 
@@ -43,6 +44,10 @@ pub struct Frame {
     pub menu: Option<MenuTrace>,
     /// Nodes in the cut.
     pub cut_nodes: usize,
+    /// Direction toward the user light (unit, model axes; [`crate::light`]).
+    pub light: [f64; 3],
+    /// Weight of the user light against the headlight.
+    pub light_mix: f64,
 }
 
 /// The final line's counts.

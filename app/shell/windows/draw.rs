@@ -23,6 +23,10 @@ pub struct Words {
     pub countdown: &'static str,
     /// Under the suggestion inset.
     pub inset_hint: &'static str,
+    /// Light button.
+    pub light: &'static str,
+    /// Hint while the light button is on.
+    pub light_hint: &'static str,
 }
 
 /// The interface words of a language.
@@ -33,22 +37,26 @@ pub fn words(lang: &str) -> &'static Words {
             help: "?",
             explore: "Esplora",
             gallery_hint: "Scorri per sfogliare, tocca per esplorare",
-            help_text: "Trascina un dito per girare intorno alla statua.\nAvvicina o allontana due dita per lo zoom.\nTieni premuto per i punti vicini.\nCon il mouse: la barra a sinistra fa lo zoom.",
+            help_text: "Trascina un dito per girare intorno alla statua.\nAvvicina o allontana due dita per lo zoom.\nTieni premuto per i punti vicini.\nLuce: trascina dal pulsante, o toccalo e trascina un dito, per spostare la luce; portala di lato per far risaltare i rilievi. Tocca di nuovo Luce per muoverti.\nCon il mouse: la barra a sinistra fa lo zoom.",
             explore_hint: "Trascina per muoverti · tieni premuto per i punti vicini",
             touch_to_explore: "Tocca per esplorare",
             countdown: "Ritorno alla galleria tra {s} s",
             inset_hint: "Tieni premuto per andarci",
+            light: "Luce",
+            light_hint: "Trascina per spostare la luce · di lato fa risaltare i rilievi",
         },
         _ => &Words {
             back: "Gallery",
             help: "?",
             explore: "Explore",
             gallery_hint: "Swipe to browse, tap to explore",
-            help_text: "Drag one finger to glide around the statue.\nPinch with two fingers to come closer or step back.\nHold your finger still for nearby places.\nWith a mouse: the bar on the left edge zooms.",
+            help_text: "Drag one finger to glide around the statue.\nPinch with two fingers to come closer or step back.\nHold your finger still for nearby places.\nLight: drag from the button, or tap it and drag one finger, to move the light; take it to the side to bring out the carving. Tap Light again to move on.\nWith a mouse: the bar on the left edge zooms.",
             explore_hint: "Drag to move · hold for nearby places",
             touch_to_explore: "Touch to explore",
             countdown: "Back to the gallery in {s} s",
             inset_hint: "Hold to go there",
+            light: "Light",
+            light_hint: "Drag to move the light · from the side it brings out the carving",
         },
     }
 }
@@ -94,6 +102,11 @@ pub struct ControllerView<'a> {
     pub caption: Option<(&'a str, &'a str)>,
     /// The zoom bar, `[x0, y0, x1, y1]` normalised (where the gestures take it).
     pub zoom_bar: [f64; 4],
+    /// Whether the light button is on.
+    pub light_on: bool,
+    /// While a finger steers the light (or the light is on): where the light is on its pad
+    /// (centre: from the eye, rim: grazing; x right, y up).
+    pub light_pad: Option<(f64, f64)>,
 }
 
 /// Draws the controller window (no model content: the visitor looks at the wall; thesis
@@ -115,6 +128,7 @@ pub fn controller(ctx: &egui::Context, v: &ControllerView<'_>) {
                 .join(" · "),
             ButtonKind::Previous | ButtonKind::Next => String::new(),
             ButtonKind::Explore => w.explore.into(),
+            ButtonKind::Light => w.light.into(),
         }
     };
     match v.mode {
@@ -190,6 +204,20 @@ pub fn controller(ctx: &egui::Context, v: &ControllerView<'_>) {
                 let r = Rect::from_center_size(screen.center(), g.size() + vec2(48.0, 40.0));
                 p.rect_filled(r, 10.0, PANEL);
                 p.galley(r.min + vec2(24.0, 20.0), g, Color32::WHITE);
+            } else if let Some((x, y)) = v.light_pad {
+                // The light's pad: the rim is a grazing light, the dot where the light is.
+                let c = screen.center();
+                let r = screen.height() * 0.22;
+                p.circle_stroke(c, r, Stroke::new(2.0, Color32::from_gray(90)));
+                p.circle_filled(c, 4.0, Color32::from_gray(90));
+                p.circle_filled(c + r * vec2(x as f32, -y as f32), 12.0, ACCENT);
+                p.text(
+                    pos2(c.x, c.y + r + 28.0),
+                    Align2::CENTER_CENTER,
+                    w.light_hint,
+                    FontId::proportional(20.0),
+                    Color32::from_gray(150),
+                );
             } else {
                 p.text(
                     screen.center(),
@@ -234,7 +262,8 @@ pub fn controller(ctx: &egui::Context, v: &ControllerView<'_>) {
     }
     for b in buttons(v.mode) {
         let r = rect_of(b, screen);
-        p.rect_filled(r, 10.0, Color32::from_gray(48));
+        let on = b.kind == ButtonKind::Light && v.light_on;
+        p.rect_filled(r, 10.0, if on { ACCENT } else { Color32::from_gray(48) });
         // The bundled fonts have no arrows: draw them.
         let arrow = |at: Pos2, size: f32, left: bool| {
             let d = if left { -size } else { size };
@@ -253,7 +282,7 @@ pub fn controller(ctx: &egui::Context, v: &ControllerView<'_>) {
             Align2::CENTER_CENTER,
             label(b.kind),
             FontId::proportional(if b.kind == ButtonKind::Language { 20.0 } else { 26.0 }),
-            Color32::WHITE,
+            if on { Color32::BLACK } else { Color32::WHITE },
         );
     }
 }

@@ -2,6 +2,11 @@
 //! titles) and a controller window (touch: help, back, language, gallery, captions), driven by
 //! the core's [`Kiosk`] at a fixed 60 Hz clock, with narration through kira.
 //!
+//! The light: each frame the renderer gets the exploration's light ([`kiosk_core::light`]:
+//! direction and weight of the user light); the gallery's turntable gets the light a visit
+//! starts with (fixed to the model as it turns), a thumbnail its node's stored light or that
+//! start light, the suggestion inset the proposed node's light or the current one.
+//!
 //! The same touch events that drive the windows are what `--record` writes and what `--session`
 //! plays back, so a recorded visit replays through the real windows, and through `kiosk replay`.
 
@@ -19,6 +24,7 @@ use kiosk_core::camera::{Camera, GoTo, SceneRef};
 use kiosk_core::gesture::{TouchEvent, TouchKind};
 use kiosk_core::graph::InfoGraph;
 use kiosk_core::kiosk::{Kiosk, KioskEffect, KioskSettings, Mode, ModelRef};
+use kiosk_core::light::Light;
 use kiosk_core::recommend::RecState;
 use kiosk_core::replay::{ExploreSettings, initial_camera};
 use kiosk_core::session::Session;
@@ -654,12 +660,14 @@ impl Running {
         let Some(ex) = exhibits.get(model) else { return };
         let store = &ex.store;
         let lang = self.kiosk.lang().to_string();
-        // The model: the exploration's camera and cut, or the gallery's slow turntable.
+        // The model: the exploration's camera, cut and light, or the gallery's slow turntable.
         let camera;
         let nodes;
+        let mut settings = self.render_settings;
         match self.kiosk.explorer() {
             Some(x) => {
                 camera = x.camera();
+                settings = lit(settings, x.light());
                 nodes = camera
                     .view_params(store, size)
                     .map(|v| x.cut().visible_nodes(store, &v))
@@ -671,6 +679,7 @@ impl Running {
                 let c0 = initial_camera(store, fov, ex.up);
                 let turn = glam::DQuat::from_axis_angle(ex.up, 0.15 * t);
                 camera = Camera { eye: c0.target + turn * (c0.eye - c0.target), up: turn * c0.up, ..c0 };
+                settings = lit(settings, start_light(&c0));
                 if self.gallery_cut.as_ref().is_none_or(|(m, _)| *m != model) {
                     self.gallery_cut = Some((model, Cut::root(store)));
                 }
@@ -688,8 +697,7 @@ impl Running {
             }
         }
         let canvas = &self.projection.canvas;
-        if let Err(e) =
-            self.renderer.render(&self.gpu, store, &nodes, &camera, &canvas.view, size, &self.render_settings)
+        if let Err(e) = self.renderer.render(&self.gpu, store, &nodes, &camera, &canvas.view, size, &settings)
         {
             self.report("render", &e);
         }
@@ -709,6 +717,12 @@ impl Running {
                 duration: INSET_PATH,
             };
             let cam = path.camera_at(t, SceneRef { store, cut: x.cut() }, x.min_distance());
+            // The proposed view in its own light, if it has one; else in the current light.
+            let light = match g.nodes[node].light {
+                Some(dir) => Light { dir, mix: kiosk_core::light::ACTIVE_MIX },
+                None => x.light(),
+            };
+            let inset_settings = lit(self.render_settings, light);
             if let Err(e) = self.renderer.render(
                 &self.gpu,
                 store,
@@ -716,7 +730,7 @@ impl Running {
                 &cam,
                 &self.inset.view,
                 INSET_SIZE,
-                &self.render_settings,
+                &inset_settings,
             ) {
                 self.report("inset render", &e);
             }
@@ -809,9 +823,9 @@ impl Running {
                 &CutParams { tolerance_px: 2.0, max_changes: usize::MAX, ..CutParams::default() },
             );
             let nodes = cut.visible_nodes(&ex.store, &v);
-            self.renderer
-                .render_image(&self.gpu, &ex.store, &nodes, &n.view, size, &self.render_settings)
-                .ok()
+            let start = start_light(&initial_camera(&ex.store, self.kiosk.settings.explore.fov_y, ex.up));
+            let settings = lit(self.render_settings, node_light(n, start));
+            self.renderer.render_image(&self.gpu, &ex.store, &nodes, &n.view, size, &settings).ok()
         });
         match img {
             Some((img, _)) => Some(self.proj_painter.put_image(&key, &img)),
@@ -852,6 +866,13 @@ impl Running {
             page: (model, exhibits.len()),
             caption: caption.as_ref().map(|(a, b)| (a.as_str(), b.as_str())),
             zoom_bar: self.kiosk.settings.explore.gestures.zoom_bar_rect(),
+            light_on: self.kiosk.light_on(),
+            light_pad: self
+                .kiosk
+                .explorer()
+                .filter(|_| self.kiosk.light_active())
+                .map(|x| x.light_pad())
+                .map(|p| (p.x, p.y)),
         };
         let target = self.controller.canvas.ui_view.clone();
         self.ctrl_painter
@@ -867,6 +888,25 @@ impl Running {
             tracing::info!("screenshot {}", path.display());
         }
         Ok(())
+    }
+}
+
+/// The renderer's settings with a light of the core.
+pub fn lit(settings: RenderSettings, light: Light) -> RenderSettings {
+    RenderSettings { light_dir: light.dir.as_vec3(), light_mix: light.mix as f32, ..settings }
+}
+
+/// The light a visit starts with, given its start view (`initial_camera`): the start light of
+/// [`kiosk_core::light`], the headlight dominating.
+pub fn start_light(start_view: &Camera) -> Light {
+    Light { dir: kiosk_core::light::start_dir(start_view), mix: kiosk_core::light::DEFAULT_MIX }
+}
+
+/// The light of a node's view: its stored light (the user light dominating), else `otherwise`.
+pub fn node_light(n: &kiosk_core::graph::Node, otherwise: Light) -> Light {
+    match n.light {
+        Some(dir) => Light { dir, mix: kiosk_core::light::ACTIVE_MIX },
+        None => otherwise,
     }
 }
 

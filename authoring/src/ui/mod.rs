@@ -1,7 +1,8 @@
 //! The authoring tool's window (egui): the curator navigates the model with IsoCam in a live
 //! render, captures views as nodes, writes titles and texts per language, attaches overlays (PNG,
 //! or SVG rendered with resvg) and narration, paints regions of interest, sets dependencies with
-//! presets, sees the graph and the validation problems, previews the walk the engine would take
+//! presets, sets a view's light (the Light tool steers the live view's light as the kiosk's
+//! visitors do; "Set light from live view" stores it), sees the graph and the validation problems, previews the walk the engine would take
 //! and replays recorded kiosk sessions. Every action goes through [`crate::Project`], so undo,
 //! redo and atomic saving cover them; an autosave file guards against crashes.
 
@@ -33,6 +34,8 @@ pub enum Tool {
     Paint,
     /// Erases it.
     Erase,
+    /// Steers the live view's light (a drag sweeps it around the view, as on the kiosk).
+    Light,
 }
 
 /// Weight presets of dependencies.
@@ -48,6 +51,9 @@ pub struct AuthorApp {
     rng: rand_pcg::Pcg64,
     live: Option<TextureHandle>,
     live_dirty: bool,
+    /// The live view's light (as the kiosk would show it).
+    pub light: kiosk_core::light::Light,
+    light_pad: Option<kiosk_core::light::LightPad>,
     /// The selected node's id.
     pub selected: Option<String>,
     /// The language being edited.
@@ -150,6 +156,8 @@ impl AuthorApp {
             rng: rand_pcg::Pcg64::seed_from_u64(0),
             live: None,
             live_dirty: true,
+            light: kiosk::windows::start_light(&cam),
+            light_pad: None,
             selected: None,
             lang,
             new_id: String::new(),
@@ -238,6 +246,28 @@ impl AuthorApp {
         );
         self.live_dirty = true;
         self.say(format!("model up: {up}; saved in exhibit.toml"));
+    }
+
+    /// Steers the live view's light by a drag of `(dx, dy)` (view widths and heights, y down),
+    /// as a kiosk visitor does; the user light then dominates.
+    pub fn steer_light(&mut self, dx: f64, dy: f64) {
+        let cam = self.camera();
+        let pad =
+            self.light_pad.get_or_insert_with(|| kiosk_core::light::LightPad::start(&cam, self.light.dir));
+        let aspect = f64::from(LIVE_SIZE.0) / f64::from(LIVE_SIZE.1.max(1));
+        self.light.dir = pad.drag(&cam, dx, dy, aspect);
+        self.light.mix = kiosk_core::light::ACTIVE_MIX;
+        self.live_dirty = true;
+    }
+
+    /// Stores the live view's light in the selected node's view.
+    pub fn set_light_from_live(&mut self) {
+        let Some(id) = self.selected.clone() else { return };
+        let r = self.project.set_light(&id, Some(self.light.dir));
+        if self.report("set light", r).is_some() {
+            let d = self.light.dir;
+            self.say(format!("light of '{id}': {:.3} {:.3} {:.3}", d.x, d.y, d.z));
+        }
     }
 
     /// Moves the live camera (the IsoCam controller keeps it off the surface).
@@ -456,7 +486,8 @@ impl AuthorApp {
         let cam = self.controller.camera();
         let Some(v) = cam.view_params(store, LIVE_SIZE) else { return };
         let nodes = self.cut.visible_nodes(store, &v);
-        match renderer.render_image(gpu, store, &nodes, &cam, LIVE_SIZE, &RenderSettings::default()) {
+        let settings = kiosk::windows::lit(RenderSettings::default(), self.light);
+        match renderer.render_image(gpu, store, &nodes, &cam, LIVE_SIZE, &settings) {
             Ok((img, _)) => {
                 let color = ColorImage::from_rgba_unmultiplied(
                     [img.width() as usize, img.height() as usize],
@@ -633,6 +664,15 @@ impl AuthorApp {
             let view = self.project.graph.nodes[i].view;
             self.select(Some(id.to_string()));
             self.set_camera(view);
+            self.take_node_light(i);
+        }
+    }
+
+    /// The live light becomes node `i`'s stored light, if it has one (else it stays).
+    fn take_node_light(&mut self, i: usize) {
+        if let Some(dir) = self.project.graph.nodes[i].light {
+            self.light = kiosk_core::light::Light { dir, mix: kiosk_core::light::ACTIVE_MIX };
+            self.live_dirty = true;
         }
     }
 
@@ -706,6 +746,7 @@ impl AuthorApp {
         ui.horizontal(|ui| {
             if ui.button("Go to view").clicked() {
                 self.set_camera(self.project.graph.nodes[i].view);
+                self.take_node_light(i);
             }
             if ui.button("Set to current view").clicked() {
                 let cam = self.camera();
@@ -722,6 +763,21 @@ impl AuthorApp {
         if self.selected.is_none() {
             return;
         }
+        ui.horizontal(|ui| {
+            let light = self.project.graph.nodes[i].light;
+            ui.label(match light {
+                Some(d) => format!("Light {:.2} {:.2} {:.2}", d.x, d.y, d.z),
+                None => "Light: the visitor's".to_string(),
+            });
+            ui.selectable_value(&mut self.tool, Tool::Light, "Steer light");
+            if ui.button("Set light from live view").clicked() {
+                self.set_light_from_live();
+            }
+            if light.is_some() && ui.button("Remove light").clicked() {
+                let r = self.project.set_light(&id, None);
+                self.report("remove light", r);
+            }
+        });
         let mut importance = self.project.graph.nodes[i].importance;
         let r = ui.add(egui::Slider::new(&mut importance, 0.0..=1.0).text("Importance"));
         if r.drag_stopped() || (r.changed() && !r.dragged()) {
@@ -917,6 +973,15 @@ impl AuthorApp {
                     self.navigate(&Intent { zoom: f64::from(scroll) * 0.002, ..Intent::default() });
                 }
             }
+            Tool::Light => {
+                if response.dragged() {
+                    let d = response.drag_delta();
+                    self.steer_light(f64::from(d.x / rect.width()), f64::from(d.y / rect.height()));
+                }
+                if response.drag_stopped() {
+                    self.light_pad = None;
+                }
+            }
             Tool::Paint | Tool::Erase => {
                 if let (Some(q), true) = (pointer, response.dragged() || response.clicked()) {
                     let u = (q.x - rect.left()) / rect.width();
@@ -929,6 +994,7 @@ impl AuthorApp {
             Tool::Navigate => "Drag to glide over the model, wheel to come closer.",
             Tool::Paint => "Paint the region of interest over the view (then Apply region).",
             Tool::Erase => "Erase parts of the painted region.",
+            Tool::Light => "Drag to move the light (to the rim of the view: raking light).",
         });
     }
 }
