@@ -124,7 +124,8 @@ fn run_kiosk(args: RunArgs) -> anyhow::Result<()> {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Import a scan (PLY in any encoding, .ply.gz, OBJ, LAS/LAZ, E57) into a multiresolution store.
+    /// Import a scan (PLY in any encoding, .ply.gz, OBJ with MTL, glTF/GLB, LAS/LAZ, E57) into a
+    /// multiresolution store.
     Import {
         /// The scan file.
         scan: PathBuf,
@@ -144,6 +145,17 @@ enum Command {
         /// Skip samples with NaN/∞ coordinates instead of failing.
         #[arg(long)]
         drop_invalid: bool,
+        /// Samples per texel of a textured mesh's texture: each textured triangle is sampled at
+        /// its texel footprint (1: the texture's own resolution; 0.25: one sample per 2 × 2
+        /// texels; figures in docs/performance.md).
+        #[arg(long, default_value_t = kiosk_import::ReadOptions::default().texel_density,
+              value_parser = texel_density)]
+        texel_density: f32,
+        /// Sample the triangles of a plain mesh (no materials) that are larger than the model's
+        /// sample spacing (its bounding box's diagonal / 256) on their surface: a low-poly mesh
+        /// gets no holes and no giant discs.
+        #[arg(long)]
+        fill_large_triangles: bool,
         /// No progress bar.
         #[arg(long, short)]
         quiet: bool,
@@ -228,8 +240,19 @@ fn main() -> anyhow::Result<()> {
         .init();
     let Some(command) = cli.command else { return run_kiosk(cli.run) };
     match command {
-        Command::Import { scan, output, node_points, spacing_stride, drop_invalid, quiet } => {
+        Command::Import {
+            scan,
+            output,
+            node_points,
+            spacing_stride,
+            drop_invalid,
+            texel_density,
+            fill_large_triangles,
+            quiet,
+        } => {
             let mut opts = ImportOptions { progress: !quiet, ..Default::default() };
+            opts.read.texel_density = texel_density;
+            opts.read.fill_plain_meshes = fill_large_triangles;
             opts.build.node_points = node_points;
             opts.build.spacing_stride = spacing_stride as usize;
             opts.read.drop_invalid = drop_invalid;
@@ -364,4 +387,14 @@ fn main() -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// `--texel-density`: a positive number up to 64.
+fn texel_density(s: &str) -> Result<f32, String> {
+    let v: f32 = s.parse().map_err(|e| format!("{e}"))?;
+    if v > 0.0 && v <= 64.0 {
+        Ok(v)
+    } else {
+        Err(format!("{v}: the texel density is more than 0 and at most 64"))
+    }
 }

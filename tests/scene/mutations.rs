@@ -140,9 +140,25 @@ fn broken_survey_files_never_panic_and_errors_say_something() {
     // LAZ is not here: its decoder (the laz crate) can be made to ask for tens of gigabytes by a
     // corrupted chunk, which aborts the process whatever the reader does; panics it raises are
     // turned into errors (formats::guarded), the allocation is not bounded yet.
-    for seed in ["formats/autzen.las", "formats/1_4_w_evlr.las", "formats/ColouredCubeDouble.e57"] {
+    // The GLB and the glTF with a texture at 1/16 sample per texel, and a sample limit: a
+    // mutated texture coordinate may ask for billions of samples, which is an error to see, not
+    // a long run.
+    let opts = ReadOptions { texel_density: 1.0 / 16.0, max_samples: 1 << 21, ..opts };
+    for seed in [
+        "formats/autzen.las",
+        "formats/1_4_w_evlr.las",
+        "formats/ColouredCubeDouble.e57",
+        "formats/box-textured/BoxTextured.glb",
+        "formats/box-textured/BoxTexturedQuantized.gltf",
+    ] {
         let good = std::fs::read(data(seed)).expect("seed file");
         let path = dir.path().join(seed.rsplit('/').next().expect("name"));
+        if seed.ends_with(".gltf") {
+            // Its buffer and texture beside it, unchanged.
+            for f in ["BoxTexturedQuantized.bin", "Cesium Logo Flat.png"] {
+                std::fs::copy(data(&format!("formats/box-textured/{f}")), dir.path().join(f)).expect("copy");
+            }
+        }
         for round in 0..150 {
             let mut b = good.clone();
             for _ in 0..rng.random_range(1..4) {

@@ -36,11 +36,48 @@ pub struct ReadOptions {
     pub drop_invalid: bool,
     /// Meshes with at most this many vertices get area-weighted normals from their faces.
     pub face_vertex_limit: u64,
+    /// Samples per texel of a textured triangle's footprint in its texture
+    /// ([`crate::formats::surface`]): 1 samples a texture at its own resolution.
+    pub texel_density: f32,
+    /// The model's sample spacing is the diagonal of its bounding box over this: the untextured
+    /// triangles of a mesh with materials (glTF, OBJ with MTL) are sampled on their surface at
+    /// that spacing, and so are those of a plain mesh more than twice as large, with
+    /// `fill_plain_meshes` (0: one sample per untextured triangle; [`crate::formats::surface`]).
+    pub fill_divisions: u32,
+    /// Whether a plain mesh (PLY or OBJ without materials) samples its triangles larger than the
+    /// model's sample spacing on their surface (no holes in a low-poly mesh) instead of giving
+    /// their vertices discs as large as the triangles. Off by default for now: it changes the
+    /// stores of today's low-poly meshes.
+    pub fill_plain_meshes: bool,
+    /// Most samples the surfaces of a mesh may make (an error beyond: a corrupted file's texture
+    /// coordinates, or a density too high).
+    pub max_samples: u64,
 }
 
 impl Default for ReadOptions {
     fn default() -> Self {
-        Self { drop_invalid: false, face_vertex_limit: 8_000_000 }
+        Self {
+            drop_invalid: false,
+            face_vertex_limit: 8_000_000,
+            texel_density: 1.0,
+            fill_divisions: 256,
+            fill_plain_meshes: false,
+            max_samples: 2_000_000_000,
+        }
+    }
+}
+
+impl ReadOptions {
+    /// The sampling parameters of a surface whose vertices span `positions`.
+    pub(crate) fn sample_params(
+        &self,
+        positions: impl Iterator<Item = DVec3>,
+    ) -> crate::formats::surface::SampleParams {
+        crate::formats::surface::SampleParams {
+            texel_density: self.texel_density,
+            fill_spacing: crate::formats::surface::Surface::fill_spacing(positions, self.fill_divisions),
+            max_samples: self.max_samples,
+        }
     }
 }
 
@@ -84,6 +121,12 @@ pub enum ReadError {
     /// The E57 reader failed.
     #[error("E57: {0}")]
     E57(#[from] crate::formats::e57::E57Error),
+    /// The glTF reader failed.
+    #[error("glTF: {0}")]
+    Gltf(#[from] crate::formats::gltf::GltfError),
+    /// A texture of the mesh cannot be used.
+    #[error(transparent)]
+    Texture(#[from] crate::formats::texture::TextureError),
 }
 
 /// What a read produced besides the points.
@@ -145,8 +188,9 @@ pub fn read_file(path: &Path, opts: &ReadOptions, sink: &mut dyn Sink) -> Result
     match detect(path)? {
         Format::Las => Ok(crate::formats::las::read(path, sink)?),
         Format::E57 => Ok(crate::formats::e57::read(path, sink)?),
-        Format::Obj => read_obj(&mut open(path)?, opts, sink),
+        Format::Obj => crate::formats::obj::read_obj_in(&mut open(path)?, path.parent(), opts, sink),
         Format::Ply => read_ply(&mut open(path)?, opts, sink),
+        Format::Gltf => crate::formats::gltf::read(path, opts, sink),
     }
 }
 

@@ -10,6 +10,7 @@
 //! keeps its place, so the face indices after it stay right; its triangles give nothing to their
 //! other vertices.
 
+use super::surface::{NO_MATERIAL, SampleParams, Surface, Tri, linear_color};
 use crate::source::{InputPoint, ReadError, ReadReport, Sink};
 use glam::{DVec3, Vec3};
 
@@ -28,6 +29,34 @@ pub(crate) struct Buffered {
     pub(crate) dropped: usize,
     /// Whether the triangles are applied as they come ([`Buffered::accumulate`]) instead of kept.
     pub(crate) streamed: bool,
+    /// Triangles larger than the model's sample spacing are sampled on their surface
+    /// ([`Fill`]); `None`: every triangle only gives its vertices their terms.
+    pub(crate) fill: Option<Fill>,
+    /// The triangles to sample on their surface, set aside by [`Buffered::accumulate`].
+    pub(crate) big: Vec<[u32; 3]>,
+    /// The squared circumradius above which a triangle is sampled on its surface, once known.
+    pub(crate) big_r2: Option<f64>,
+}
+
+/// How a mesh without materials fills its large triangles: a triangle whose circumradius is
+/// more than twice the model's sample spacing (the diagonal of its bounding box over
+/// `divisions`) is sampled on its surface at that spacing ([`crate::formats::surface`]), and its
+/// vertices (unless smaller triangles use them too) are not samples of their own: a low-poly
+/// mesh has no holes and no giant discs, a fine mesh is its vertices as before.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Fill {
+    /// The model's sample spacing is the diagonal of its bounding box over this.
+    pub(crate) divisions: u32,
+    /// Most samples the surface may make.
+    pub(crate) max_samples: u64,
+}
+
+impl Fill {
+    /// From the reader's options (`None` when filling is off).
+    pub(crate) fn from_options(opts: &crate::source::ReadOptions) -> Option<Self> {
+        (opts.fill_plain_meshes && opts.fill_divisions > 0)
+            .then_some(Self { divisions: opts.fill_divisions, max_samples: opts.max_samples })
+    }
 }
 
 impl Buffered {
@@ -54,6 +83,7 @@ impl Buffered {
     /// come first and have no normals of their own, the common layout: its triangles are applied
     /// in file order as they are read and never kept, and the vertices need no other buffer.
     pub(crate) fn accumulate(&mut self, tris: &[[u32; 3]]) {
+        let big_r2 = self.big_r2();
         let points = &mut self.points;
         for t in tris {
             // Indices were checked against the vertices, all read, when the face was converted.
@@ -61,6 +91,10 @@ impl Buffered {
                 continue;
             };
             let Some(terms) = triangle_terms([a, b, c]) else { continue };
+            if f64::from(terms.r2) > big_r2 {
+                self.big.push(*t);
+                continue;
+            }
             for &i in t {
                 let p = &mut points[i as usize];
                 let mut sum = Terms::kept_in(p);
@@ -70,8 +104,18 @@ impl Buffered {
         }
     }
 
+    /// The squared circumradius above which a triangle is sampled on its surface (computed at
+    /// the first call, every vertex read; infinite without [`Fill`]).
+    fn big_r2(&mut self) -> f64 {
+        let Some(fill) = self.fill else { return f64::INFINITY };
+        *self.big_r2.get_or_insert_with(|| {
+            let h = Surface::fill_spacing(self.points.iter().map(|p| p.pos), fill.divisions);
+            if h > 0.0 { (2.0 * h).powi(2) } else { f64::INFINITY }
+        })
+    }
+
     /// Applies the triangles and passes the vertices on with their face normals (where they
-    /// have none of their own) and radii.
+    /// have none of their own) and radii; then the samples of the large triangles' surfaces.
     pub(crate) fn finish(mut self, report: &mut ReadReport, sink: &mut dyn Sink) -> Result<(), ReadError> {
         let n = self.points.len();
         if self.unchecked
@@ -82,6 +126,17 @@ impl Buffered {
                 t.iter().max().copied().unwrap_or(0)
             )));
         }
+        if !self.streamed && self.fill.is_some() && !self.tris.is_empty() {
+            let big_r2 = self.big_r2();
+            let points = &self.points;
+            let (big, small): (Vec<[u32; 3]>, Vec<[u32; 3]>) =
+                std::mem::take(&mut self.tris).into_iter().partition(|t| {
+                    triangle_terms(t.map(|i| points[i as usize].pos))
+                        .is_some_and(|s| f64::from(s.r2) > big_r2)
+                });
+            (self.big, self.tris) = (big, small);
+        }
+        let surface = (!self.big.is_empty()).then(|| self.big_surface(report));
         if self.streamed {
             use rayon::prelude::*;
             self.points.par_iter_mut().for_each(|p| {
@@ -91,12 +146,56 @@ impl Buffered {
         } else if !self.tris.is_empty() {
             apply_triangles(&mut self.points, &std::mem::take(&mut self.tris));
         }
+        // Vertices of large triangles only: their surface samples stand for them.
+        if let Some((_, only_big)) = &surface {
+            let mut k = 0;
+            self.points.retain(|p| {
+                k += 1;
+                !(only_big[k - 1] && p.radius == 0.0 && p.spacing == 0.0)
+            });
+        }
         // Dropped vertices kept their place for the faces only.
         if self.dropped > 0 {
             self.points.retain(|p| p.pos.is_finite());
         }
         report.points += self.points.len() as u64;
-        sink.points(self.points).map_err(ReadError::Sink)
+        sink.points(self.points).map_err(ReadError::Sink)?;
+        if let (Some((surface, _)), Some(fill)) = (surface, self.fill) {
+            let params = SampleParams {
+                texel_density: 1.0,
+                fill_spacing: self.big_r2.map_or(0.0, |r2| r2.sqrt() / 2.0),
+                max_samples: fill.max_samples,
+            };
+            surface.sample(&params, report, sink)?;
+        }
+        Ok(())
+    }
+
+    /// The large triangles as a surface to sample (their vertices with the file's normals and
+    /// colours), and which vertices are in large triangles (dropped unless a small one uses
+    /// them too).
+    fn big_surface(&self, report: &ReadReport) -> (Surface, Vec<bool>) {
+        let mut index = vec![u32::MAX; self.points.len()];
+        let mut surface = Surface::default();
+        for t in &self.big {
+            let v = t.map(|i| {
+                let slot = &mut index[i as usize];
+                if *slot == u32::MAX {
+                    *slot = surface.positions.len() as u32;
+                    let p = &self.points[i as usize];
+                    surface.positions.push(p.pos);
+                    if report.has_normals {
+                        surface.normals.push(p.normal);
+                    }
+                    if report.has_colors {
+                        surface.colors.push(linear_color(p.color));
+                    }
+                }
+                *slot
+            });
+            surface.tris.push(Tri { v, uv: [[0.0; 2]; 3], material: NO_MATERIAL });
+        }
+        (surface, index.into_iter().map(|i| i != u32::MAX).collect())
     }
 }
 

@@ -3,11 +3,14 @@
 //! its own typed error. PLY and OBJ are read by [`crate::source`] (and [`crate::ply`]).
 
 pub mod e57;
+pub mod gltf;
 pub mod gzip;
 pub mod las;
 pub(crate) mod mesh;
 pub mod obj;
 pub mod ply;
+pub mod surface;
+pub mod texture;
 
 use std::io::Read;
 use std::path::Path;
@@ -23,6 +26,8 @@ pub enum Format {
     Las,
     /// ASTM E57.
     E57,
+    /// glTF 2.0: JSON (`.gltf`) or binary (`.glb`).
+    Gltf,
 }
 
 /// What a file that is not a readable scan turned out to be.
@@ -40,12 +45,12 @@ pub enum DetectError {
 }
 
 /// The formats the importer reads, for error messages.
-pub const SUPPORTED: &str =
-    "PLY (.ply, .ply.gz), OBJ (.obj, .obj.gz), LAS and LAZ (.las, .laz) and E57 (.e57)";
+pub const SUPPORTED: &str = "PLY (.ply, .ply.gz), OBJ (.obj, .obj.gz, with MTL materials), glTF 2.0 (.gltf, .glb), \
+     LAS and LAZ (.las, .laz) and E57 (.e57)";
 
 /// Decides a file's format from its first bytes (and, for text, its extension).
 pub fn detect(path: &Path) -> Result<Format, DetectError> {
-    let mut head = [0u8; 16];
+    let mut head = [0u8; 4096];
     let n = read_head(path, &mut head)?;
     let head = &head[..n];
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("").to_ascii_lowercase();
@@ -62,8 +67,18 @@ pub fn detect(path: &Path) -> Result<Format, DetectError> {
     if head.starts_with(b"ISOKSTOR") {
         return unsupported("a file that is already a store (open it directly; `kiosk verify` checks it)");
     }
-    if head.starts_with(b"glTF") || name.ends_with(".gltf") || name.ends_with(".glb") {
-        return unsupported("a glTF model");
+    if head.starts_with(b"glTF") {
+        return Ok(Format::Gltf);
+    }
+    // glTF JSON: an object with an "asset" near its start (or named .gltf).
+    let text = head.trim_ascii_start();
+    if text.starts_with(b"{")
+        && (name.ends_with(".gltf") || memchr::memmem::find(text, b"\"asset\"").is_some())
+    {
+        return Ok(Format::Gltf);
+    }
+    if name.ends_with(".glb") {
+        return unsupported("a file named .glb without the glTF binary header");
     }
     if head.starts_with(&[0x89, b'P', b'N', b'G']) || head.starts_with(&[0xff, 0xd8, 0xff]) {
         return unsupported("an image");

@@ -1,31 +1,56 @@
 //! Wavefront OBJ as points: `v` (with optional colour) and `f` (`a/b/c` and negative indices),
-//! read in blocks of lines parsed in parallel ([`crate::lines`]); every other statement is
-//! ignored.
+//! read in blocks of lines parsed in parallel ([`crate::lines`]). With materials (`mtllib`,
+//! `usemtl`: [`mtl`]) and texture coordinates (`vt`), the mesh is sampled on its surface
+//! ([`crate::formats::surface`]): every triangle at the spacing of its texel footprint, coloured
+//! from its material's `map_Kd` times its `Kd`. Other statements are ignored.
 
 use super::mesh::Buffered;
 use super::ply::color_channel;
+use super::surface::{Material, NO_MATERIAL, Surface, Tri, linear_color};
+use super::texture::{TextureCache, TextureError, Wrap};
 use crate::lines::{Stop, Tokens, parse_i64};
 use crate::ply;
 use crate::source::{InputPoint, ReadError, ReadOptions, ReadReport, Sink};
 use glam::{DVec3, Vec3};
 use std::io::BufRead;
+use std::path::{Path, PathBuf};
 
-/// Reads an OBJ stream: `v x y z [r g b]` vertices and `f` faces (for normals). Other statements
-/// (`vn`, `vt`, groups, materials, comments, in any encoding) are ignored. Read in blocks of
-/// lines parsed in parallel ([`crate::lines`]), visited in order.
+/// Reads an OBJ stream: `v x y z [r g b]` vertices and `f` faces (for normals). Without the
+/// file's directory, material libraries are not looked for (a warning says so).
 pub fn read_obj(
     r: &mut dyn BufRead,
     opts: &ReadOptions,
     sink: &mut dyn Sink,
 ) -> Result<ReadReport, ReadError> {
+    read_obj_in(r, None, opts, sink)
+}
+
+/// Reads an OBJ stream whose material libraries and textures are found relative to `dir` (the
+/// OBJ file's directory): `v x y z [r g b]` vertices, `vt` texture coordinates, `f` faces,
+/// `mtllib` and `usemtl`. Other statements (`vn`, groups, comments, in any encoding) are
+/// ignored. Read in blocks of lines parsed in parallel ([`crate::lines`]), visited in order.
+pub fn read_obj_in(
+    r: &mut dyn BufRead,
+    dir: Option<&Path>,
+    opts: &ReadOptions,
+    sink: &mut dyn Sink,
+) -> Result<ReadReport, ReadError> {
     let mut report = ReadReport::default();
-    let mut buffered = Buffered::default();
+    let mut buffered = Buffered { fill: super::mesh::Fill::from_options(opts), ..Default::default() };
     let mut dropped = 0u64;
     let mut idx = Vec::new();
+    // Materials: texture coordinates, the libraries named, the material of each triangle (an
+    // index into `used`) and its corners' texture coordinates, recorded once a library is named.
+    let mut texcoords: Vec<[f32; 2]> = Vec::new();
+    let mut libraries: Vec<(String, usize)> = Vec::new();
+    let mut used: Vec<String> = Vec::new();
+    let mut current = NO_MATERIAL;
+    let mut tri_mat: Vec<u32> = Vec::new();
+    let mut tri_uv: Vec<[u32; 3]> = Vec::new();
     let unusable = |l: usize, m: String| ReadError::Unusable(format!("line {l}: {m}"));
     let mut visit = |_: &[u8], parsed: &mut ObjParsed| -> Result<(), ReadError> {
         for piece in &mut parsed.pieces {
-            let (mut v, mut f) = (0, 0);
+            let (mut v, mut f, mut names) = (0, 0, 0);
             for st in &piece.stmts {
                 match *st {
                     ObjStmt::Vertex { line, n } => {
@@ -63,6 +88,29 @@ pub fn read_obj(
                             spacing: 0.0,
                         });
                     }
+                    ObjStmt::TexCoord => {
+                        texcoords.push([piece.values[v] as f32, piece.values[v + 1] as f32]);
+                        v += 2;
+                    }
+                    ObjStmt::MtlLib { line } => {
+                        libraries.push((piece.names[names].clone(), line));
+                        names += 1;
+                        if tri_mat.len() < buffered.tris.len() {
+                            tri_mat.resize(buffered.tris.len(), NO_MATERIAL);
+                            tri_uv.resize(buffered.tris.len(), [u32::MAX; 3]);
+                        }
+                    }
+                    ObjStmt::UseMtl => {
+                        let name = &piece.names[names];
+                        names += 1;
+                        current = match used.iter().position(|u| u == name) {
+                            Some(k) => k as u32,
+                            None => {
+                                used.push(name.clone());
+                                (used.len() - 1) as u32
+                            }
+                        };
+                    }
                     ObjStmt::Face { line, n } => {
                         let count = buffered.points.len() as f64;
                         // 1-based, negative = relative to the end.
@@ -72,8 +120,40 @@ pub fn read_obj(
                                 .iter()
                                 .map(|&i| if i < 0 { count + i as f64 } else { i as f64 - 1.0 }),
                         );
-                        f += n;
+                        let before = buffered.tris.len();
                         buffered.add_polygon(&idx).map_err(|m| unusable(line, m))?;
+                        if !libraries.is_empty() {
+                            let nt = texcoords.len() as i64;
+                            let mut corners = [0u32; 3];
+                            let corner = |k: usize| -> Result<u32, ReadError> {
+                                match piece.tex_indices[f + k] {
+                                    0 => Ok(u32::MAX),
+                                    i => {
+                                        let at = if i < 0 { nt + i } else { i - 1 };
+                                        if (0..nt).contains(&at) {
+                                            Ok(at as u32)
+                                        } else {
+                                            Err(unusable(
+                                                line,
+                                                format!(
+                                                    "texture coordinate index {i} is out of range: {nt} 'vt' lines so far"
+                                                ),
+                                            ))
+                                        }
+                                    }
+                                }
+                            };
+                            let first = corner(0)?;
+                            for k in 1..n - 1 {
+                                corners[0] = first;
+                                corners[1] = corner(k)?;
+                                corners[2] = corner(k + 1)?;
+                                tri_uv.push(corners);
+                                tri_mat.push(current);
+                            }
+                            debug_assert_eq!(tri_mat.len(), buffered.tris.len(), "{before}");
+                        }
+                        f += n;
                         report.faces_used += 1;
                     }
                 }
@@ -98,6 +178,18 @@ pub fn read_obj(
     if dropped > 0 {
         report.warnings.push(format!("{dropped} vertex row(s) with non-finite coordinates dropped"));
     }
+    if !libraries.is_empty() && !buffered.tris.is_empty() {
+        let materials = match dir {
+            Some(dir) => mtl::load_libraries(dir, &libraries, &used, &mut report.warnings)?,
+            None => {
+                report.warnings.push("materials ignored: the OBJ was read without its directory".into());
+                Vec::new()
+            }
+        };
+        if materials.iter().any(Option::is_some) {
+            return sample_materials(buffered, &texcoords, &tri_uv, &tri_mat, &materials, opts, report, sink);
+        }
+    }
     if report.rows > opts.face_vertex_limit {
         buffered.tris.clear();
     }
@@ -105,13 +197,305 @@ pub fn read_obj(
     Ok(report)
 }
 
+/// A mesh with materials sampled on its surface: every triangle with its material (the
+/// material named by its `usemtl`, if the libraries define it) and texture coordinates;
+/// vertices in no triangle are passed on as they are.
+#[allow(clippy::too_many_arguments)]
+fn sample_materials(
+    buffered: Buffered,
+    texcoords: &[[f32; 2]],
+    tri_uv: &[[u32; 3]],
+    tri_mat: &[u32],
+    materials: &[Option<mtl::ObjMaterial>],
+    opts: &ReadOptions,
+    mut report: ReadReport,
+    sink: &mut dyn Sink,
+) -> Result<ReadReport, ReadError> {
+    let points = buffered.points;
+    let mut surface = Surface {
+        positions: points.iter().map(|p| p.pos).collect(),
+        colors: if report.has_colors {
+            points.iter().map(|p| linear_color(p.color)).collect()
+        } else {
+            Vec::new()
+        },
+        materials: materials
+            .iter()
+            .map(|m| m.as_ref().map(|m| m.material.clone()).unwrap_or_default())
+            .collect(),
+        ..Default::default()
+    };
+    surface.tris = buffered
+        .tris
+        .iter()
+        .zip(tri_uv)
+        .zip(tri_mat)
+        .map(|((&v, uv), &m)| {
+            let (offset, scale) = materials
+                .get(m as usize)
+                .and_then(Option::as_ref)
+                .map_or(([0.0; 2], [1.0; 2]), |m| (m.offset, m.scale));
+            // OBJ's v runs up from the bottom of the image; the sampler's down from the top.
+            let uv = uv.map(|k| {
+                let [u, v] = texcoords.get(k as usize).copied().unwrap_or([0.0; 2]);
+                [u * scale[0] + offset[0], 1.0 - (v * scale[1] + offset[1])]
+            });
+            Tri { v, uv, material: if (m as usize) < materials.len() { m } else { NO_MATERIAL } }
+        })
+        .collect();
+    let params = opts.sample_params(points.iter().map(|p| p.pos));
+    // Vertices in no triangle (a point cloud in the same file) are samples of their own.
+    let mut in_tri = vec![false; points.len()];
+    for t in &surface.tris {
+        for i in t.v {
+            if let Some(slot) = in_tri.get_mut(i as usize) {
+                *slot = true;
+            }
+        }
+    }
+    let lone: Vec<InputPoint> = points
+        .iter()
+        .zip(&in_tri)
+        .filter(|(p, used)| !**used && p.pos.is_finite())
+        .map(|(p, _)| *p)
+        .collect();
+    if !lone.is_empty() {
+        report.points += lone.len() as u64;
+        sink.points(lone).map_err(ReadError::Sink)?;
+    }
+    surface.sample(&params, &mut report, sink)?;
+    report.has_colors |= surface.materials.iter().any(|m| m.colored);
+    report.faces_used = report.faces_used.min(surface.tris.len() as u64);
+    Ok(report)
+}
+
+/// Wavefront material libraries (`.mtl`): `newmtl`, `Kd`, `map_Kd` with its options (`-o`,
+/// `-s`, `-clamp`; the others are skipped), file names with spaces, relative to the library.
+pub mod mtl {
+    use super::*;
+
+    /// A material of a library, as the sampler uses it, with its texture transform.
+    #[derive(Clone, Debug)]
+    pub struct ObjMaterial {
+        /// Colour factor and texture.
+        pub material: Material,
+        /// `map_Kd -o u v`.
+        pub offset: [f32; 2],
+        /// `map_Kd -s u v`.
+        pub scale: [f32; 2],
+    }
+
+    /// The materials `used` (in that order; `None` where no library defines one) from the
+    /// `libraries` named by `mtllib` (with their lines), found in `dir`. A library that cannot
+    /// be read, or a material it does not define, is a warning; a texture that cannot be read is
+    /// an error naming it.
+    pub(crate) fn load_libraries(
+        dir: &Path,
+        libraries: &[(String, usize)],
+        used: &[String],
+        warnings: &mut Vec<String>,
+    ) -> Result<Vec<Option<ObjMaterial>>, ReadError> {
+        let mut defined: Vec<(String, ObjMaterial)> = Vec::new();
+        let mut textures = TextureCache::default();
+        for (names, line) in libraries {
+            for path in library_files(dir, names) {
+                match std::fs::read(&path) {
+                    Ok(bytes) => defined.extend(parse(&path, &bytes, &mut textures, warnings)?),
+                    Err(e) => warnings.push(format!(
+                        "material library {} (mtllib, line {line}) cannot be read: {e}; its materials are ignored",
+                        path.display()
+                    )),
+                }
+            }
+        }
+        Ok(used
+            .iter()
+            .map(|name| {
+                let found = defined.iter().rev().find(|(n, _)| n == name).map(|(_, m)| m.clone());
+                if found.is_none() && !defined.is_empty() {
+                    warnings.push(format!("material '{name}' (usemtl) is not in the material libraries"));
+                }
+                found
+            })
+            .collect())
+    }
+
+    /// The files an `mtllib` line names: the whole rest of the line if that is a file (a name
+    /// with spaces), else its words.
+    fn library_files(dir: &Path, names: &str) -> Vec<PathBuf> {
+        let whole = dir.join(names.replace('\\', "/"));
+        if whole.is_file() || !names.contains(char::is_whitespace) {
+            return vec![whole];
+        }
+        names.split_whitespace().map(|n| dir.join(n.replace('\\', "/"))).collect()
+    }
+
+    /// The materials a library defines, in order.
+    pub(crate) fn parse(
+        path: &Path,
+        bytes: &[u8],
+        textures: &mut TextureCache,
+        warnings: &mut Vec<String>,
+    ) -> Result<Vec<(String, ObjMaterial)>, ReadError> {
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let text = String::from_utf8_lossy(bytes);
+        let file = path.display();
+        let mut out: Vec<(String, ObjMaterial)> = Vec::new();
+        let new = || ObjMaterial { material: Material::default(), offset: [0.0; 2], scale: [1.0; 2] };
+        for (k, raw) in text.lines().enumerate() {
+            let line = k + 1;
+            let l = raw.trim();
+            let (kw, rest) = l.split_once(char::is_whitespace).unwrap_or((l, ""));
+            let rest = rest.trim();
+            let bad = |what: &str| ReadError::Unusable(format!("{file} line {line}: {what}"));
+            match kw {
+                "newmtl" => out.push((rest.to_string(), new())),
+                "Kd" => {
+                    let Some((_, m)) = out.last_mut() else { return Err(bad("Kd before any newmtl")) };
+                    let v: Vec<f32> = rest.split_whitespace().map_while(|t| t.parse().ok()).collect();
+                    let c = match v[..] {
+                        [g] => [g; 3],
+                        [r, g, b, ..] => [r, g, b],
+                        _ => return Err(bad(&format!("Kd '{rest}' is not a colour"))),
+                    };
+                    if !c.iter().all(|x| x.is_finite()) {
+                        return Err(bad(&format!("Kd '{rest}' is not a colour")));
+                    }
+                    m.material.factor = [c[0], c[1], c[2], 1.0];
+                    m.material.colored = true;
+                }
+                "map_Kd" => {
+                    let Some((name, m)) = out.last_mut() else { return Err(bad("map_Kd before any newmtl")) };
+                    let map = map_options(rest).map_err(|e| bad(&e))?;
+                    let tex_path = dir.join(map.file.replace('\\', "/"));
+                    let wrap = if map.clamp { [Wrap::ClampToEdge; 2] } else { [Wrap::Repeat; 2] };
+                    let texture = textures.get(&tex_path, wrap).map_err(|e| TextureError {
+                        source_name: format!(
+                            "{} (map_Kd of material '{name}', {file} line {line})",
+                            tex_path.display()
+                        ),
+                        msg: e.msg,
+                    })?;
+                    m.material.texture = Some(texture);
+                    m.material.colored = true;
+                    (m.offset, m.scale) = (map.offset, map.scale);
+                }
+                _ => {}
+            }
+        }
+        if out.is_empty() {
+            warnings.push(format!("material library {file} defines no material (newmtl)"));
+        }
+        Ok(out)
+    }
+
+    /// A texture statement's options and file name.
+    #[derive(Debug, PartialEq)]
+    pub(crate) struct MapOptions {
+        pub(crate) file: String,
+        pub(crate) offset: [f32; 2],
+        pub(crate) scale: [f32; 2],
+        pub(crate) clamp: bool,
+    }
+
+    /// Reads `-o u v w`, `-s u v w`, `-clamp on` and skips the other options (with their
+    /// arguments); the rest of the statement is the file name, spaces and all.
+    pub(crate) fn map_options(rest: &str) -> Result<MapOptions, String> {
+        let mut out = MapOptions { file: String::new(), offset: [0.0; 2], scale: [1.0; 2], clamp: false };
+        let mut s = rest.trim_start();
+        while s.starts_with('-') {
+            let (opt, tail) = s.split_once(char::is_whitespace).unwrap_or((s, ""));
+            let mut words = tail.split_whitespace().peekable();
+            let mut consumed = Vec::new();
+            // Options of 1–3 numbers take as many as follow; the others a fixed count.
+            let fixed = match opt {
+                "-blendu" | "-blendv" | "-cc" | "-clamp" | "-bm" | "-texres" | "-imfchan" | "-boost"
+                | "-type" => 1,
+                "-mm" => 2,
+                "-o" | "-s" | "-t" => 0,
+                _ => return Err(format!("unknown texture option '{opt}'")),
+            };
+            if fixed > 0 {
+                for _ in 0..fixed {
+                    consumed.push(
+                        words.next().ok_or_else(|| format!("texture option '{opt}' without its value"))?,
+                    );
+                }
+            } else {
+                while consumed.len() < 3 && words.peek().is_some_and(|w| w.parse::<f32>().is_ok()) {
+                    consumed.extend(words.next());
+                }
+                if consumed.is_empty() {
+                    return Err(format!("texture option '{opt}' without its value"));
+                }
+            }
+            let nums: Vec<f32> = consumed.iter().filter_map(|w| w.parse().ok()).collect();
+            match opt {
+                "-clamp" => out.clamp = consumed[0] == "on",
+                "-o" => out.offset = [nums[0], nums.get(1).copied().unwrap_or(0.0)],
+                "-s" => out.scale = [nums[0], nums.get(1).copied().unwrap_or(1.0)],
+                _ => {}
+            }
+            // The rest after the consumed words.
+            let mut t = tail;
+            for w in &consumed {
+                t = t.trim_start();
+                t = &t[w.len()..];
+            }
+            s = t.trim_start();
+        }
+        if s.is_empty() {
+            return Err("texture statement without a file name".into());
+        }
+        out.file = s.trim_end().to_string();
+        Ok(out)
+    }
+
+    #[cfg(test)]
+    mod tests {
+        use super::*;
+
+        #[test]
+        fn map_options_and_names_with_spaces() {
+            let m = map_options("-s 2 3 1 -o 0.5 -clamp on -bm 0.2 my texture.jpg").expect("options");
+            assert_eq!(
+                m,
+                MapOptions {
+                    file: "my texture.jpg".into(),
+                    offset: [0.5, 0.0],
+                    scale: [2.0, 3.0],
+                    clamp: true
+                }
+            );
+            assert_eq!(map_options("atlas 1.png").expect("plain").file, "atlas 1.png");
+            assert!(map_options("-o").is_err());
+            assert!(map_options("-clamp on").is_err());
+            assert!(map_options("-zz 1 a.png").is_err());
+        }
+    }
+}
+
 /// An OBJ statement the reader uses, with how many numbers it takes from its piece.
 #[derive(Clone, Copy)]
 pub(crate) enum ObjStmt {
     /// `v`: coordinates (and colour) in `values`.
-    Vertex { line: usize, n: usize },
-    /// `f`: vertex indices (as written: 1-based or negative) in `indices`.
-    Face { line: usize, n: usize },
+    Vertex {
+        line: usize,
+        n: usize,
+    },
+    /// `f`: vertex indices (as written: 1-based or negative) in `indices`, and as many texture
+    /// coordinate indices in `tex_indices` (0 where a corner has none).
+    Face {
+        line: usize,
+        n: usize,
+    },
+    /// `vt u [v [w]]`: the first two in `values`.
+    TexCoord,
+    /// `usemtl NAME` or `mtllib FILE…`: the rest of the line in `names`.
+    UseMtl,
+    MtlLib {
+        line: usize,
+    },
 }
 
 /// The statements of consecutive lines; parsing stops at the first line in error, which is
@@ -121,6 +505,8 @@ pub(crate) struct ObjPiece {
     stmts: Vec<ObjStmt>,
     values: Vec<f64>,
     indices: Vec<i64>,
+    tex_indices: Vec<i64>,
+    names: Vec<String>,
     error: Option<(usize, String)>,
 }
 
@@ -143,7 +529,10 @@ impl crate::lines::Format for ObjLines {
         out.lines.clear();
         for (start, end) in crate::lines::lines(block) {
             line += 1;
-            if matches!(Tokens::new(&block[start..end]).next(), Some(b"v" | b"f")) {
+            if matches!(
+                Tokens::new(&block[start..end]).next(),
+                Some(b"v" | b"f" | b"vt" | b"usemtl" | b"mtllib")
+            ) {
                 out.lines.push((start, end, line));
             }
         }
@@ -155,6 +544,8 @@ impl crate::lines::Format for ObjLines {
             p.stmts.clear();
             p.values.clear();
             p.indices.clear();
+            p.tex_indices.clear();
+            p.names.clear();
             p.error = None;
             for &(start, end, line) in lines {
                 if let Err(msg) = parse_obj_line(&block[start..end], line, p) {
@@ -181,15 +572,47 @@ pub(crate) fn parse_obj_line(text: &[u8], line: usize, p: &mut ObjPiece) -> Resu
             }
             p.stmts.push(ObjStmt::Vertex { line, n });
         }
+        Some(b"vt") => {
+            let mut uv = [0.0; 2];
+            for (k, slot) in uv.iter_mut().enumerate() {
+                match tok.next_f64() {
+                    Some(v) => *slot = v.map_err(|t| format!("'{}' is not a number", quoted(t)))?,
+                    None if k == 1 => {}
+                    None => return Err("texture coordinate without a value".into()),
+                }
+            }
+            p.values.extend(uv);
+            p.stmts.push(ObjStmt::TexCoord);
+        }
+        Some(kw @ (b"usemtl" | b"mtllib")) => {
+            let rest = rest_of_line(text, kw.len());
+            p.names.push(rest);
+            p.stmts.push(if kw == b"usemtl" { ObjStmt::UseMtl } else { ObjStmt::MtlLib { line } });
+        }
         _ => {
             let start = p.indices.len();
             for t in tok {
-                let first = t.split(|&b| b == b'/').next().unwrap_or_default();
+                let mut parts = t.split(|&b| b == b'/');
+                let first = parts.next().unwrap_or_default();
                 let i = parse_i64(first).ok_or_else(|| format!("bad face index '{}'", quoted(t)))?;
+                let vt = match parts.next() {
+                    None | Some(b"") => 0,
+                    Some(vt) => {
+                        parse_i64(vt).ok_or_else(|| format!("bad texture index in '{}'", quoted(t)))?
+                    }
+                };
                 p.indices.push(i);
+                p.tex_indices.push(vt);
             }
             p.stmts.push(ObjStmt::Face { line, n: p.indices.len() - start });
         }
     }
     Ok(())
+}
+
+/// The text of a line after its keyword (`kw_len` bytes after the leading whitespace), trimmed:
+/// a name with spaces in it stays whole.
+fn rest_of_line(text: &[u8], kw_len: usize) -> String {
+    let start = text.iter().position(|b| !b.is_ascii_whitespace()).unwrap_or(0) + kw_len;
+    String::from_utf8_lossy(text.get(start..).unwrap_or_default()).trim().to_string()
 }

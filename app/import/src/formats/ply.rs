@@ -79,7 +79,7 @@ pub fn read_ply(
             v.count, opts.face_vertex_limit
         ));
     }
-    let mut buffered = Buffered::default();
+    let mut buffered = Buffered { fill: super::mesh::Fill::from_options(opts), ..Default::default() };
     // The vertices a face may refer to, when every vertex comes before the faces.
     let vertices = face.filter(|&(fi, _)| vi < fi).and_then(|_| usize::try_from(v.count).ok());
     buffered.streamed = use_faces && vertices.is_some() && normal_idx.is_none();
