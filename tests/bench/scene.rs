@@ -1,4 +1,4 @@
-//! `cargo bench --bench scene [-- --points N[,N…]] [--quick] [--tradeoff-only]`: the scene's numbers
+//! `cargo bench --bench scene [-- --points N[,N…]] [--quick] [--tradeoff-only | --textured-only]`: the scene's numbers
 //! (docs/performance.md).
 //! `-- --queries-only A.kstore B.kstore …`: tables 2 and 3 only, on existing stores side by side.
 //! `-- --reference`: only the machine's reference figure (inflating the scan), printed with the
@@ -57,6 +57,9 @@ fn main() -> anyhow::Result<()> {
         return Ok(());
     }
     let quick = args.iter().any(|a| a == "--quick");
+    if args.iter().any(|a| a == "--textured-only") {
+        return textured_reader();
+    }
     if args.iter().any(|a| a == "--tradeoff-only") {
         let out_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench");
         std::fs::create_dir_all(&out_dir)?;
@@ -155,6 +158,34 @@ fn main() -> anyhow::Result<()> {
 /// How long this machine takes, now, to inflate the scan's gzip stream (one thread): the same
 /// fixed work in every run, printed beside the tables so that runs in the machine's slow and fast
 /// stretches can be told apart.
+/// The textured-mesh reader alone (no build): samples per second by samples per texel, on the
+/// textured box (`tests/data/formats`).
+fn textured_reader() -> anyhow::Result<()> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/formats/box-textured/BoxTextured.glb");
+    println!("\n## Textured reader alone ({}, median of 3)", path.display());
+    println!("| samples per texel | samples | seconds | M samples/s |");
+    println!("|---|---|---|---|");
+    for density in [0.25f32, 1.0, 4.0, 16.0] {
+        let opts = ReadOptions { texel_density: density, ..Default::default() };
+        let mut times = Vec::new();
+        let mut n = 0u64;
+        for _ in 0..3 {
+            n = 0;
+            let start = Instant::now();
+            let mut count = |_: InputPoint| -> Result<(), String> {
+                n += 1;
+                Ok(())
+            };
+            let report = source::read_file(&path, &opts, &mut count)?;
+            times.push(start.elapsed().as_secs_f64());
+            anyhow::ensure!(report.points == n, "{} points reported, {n} received", report.points);
+        }
+        let s = median(times);
+        println!("| {density} | {n} | {s:.3} | {:.1} |", n as f64 / s / 1e6);
+    }
+    Ok(())
+}
+
 fn inflate_ms(scan: &Path) -> anyhow::Result<f64> {
     let mut ms: Vec<f64> = (0..5)
         .map(|_| {

@@ -560,28 +560,3 @@ fn read_indices(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u32>, G
         })
         .collect()
 }
-
-#[cfg(test)]
-mod tests {
-    /// The reader alone on a textured model: `cargo test -p kiosk-import --release -- --ignored
-    /// --nocapture textured_throughput` (figures in docs/performance.md).
-    #[test]
-    #[ignore]
-    fn textured_throughput() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../tests/data/formats/box-textured/BoxTextured.glb");
-        for density in [0.25f32, 1.0, 4.0, 16.0] {
-            let opts = crate::ReadOptions { texel_density: density, ..Default::default() };
-            let start = std::time::Instant::now();
-            let mut n = 0u64;
-            let report = super::read(&path, &opts, &mut |_| {
-                n += 1;
-                Ok(())
-            })
-            .expect("read");
-            let s = start.elapsed().as_secs_f64();
-            assert_eq!(report.points, n);
-            println!("density {density}: {n} samples in {s:.3} s: {:.2} M samples/s", n as f64 / s / 1e6);
-        }
-    }
-}
