@@ -14,6 +14,7 @@ seed() { # target, files...
 }
 seed ply $(find "$data/ply-corpus" -name '*.ply' -size -64k | head -60)
 seed obj $(find "$data" ../content -name '*.obj' -size -64k | head -20)
+seed gltf $(find "$data/formats" -name '*.glb' -size -64k)
 seed graph_xml ../content/*/graph.xml
 seed session ../tests/sessions/*.jsonl
 if [ -z "$(ls -A corpus/store 2>/dev/null)" ]; then

@@ -73,7 +73,36 @@ fn read_bounded(path: &Path) -> Result<Vec<u8>, String> {
 /// by path are left out.
 pub fn svg_to_rgba(data: &[u8]) -> Result<image::RgbaImage, String> {
     use resvg::usvg;
-    let mut options = usvg::Options { resources_dir: None, ..usvg::Options::default() };
+    // The system's fonts, loaded once: an overlay's labels are text.
+    static FONTS: std::sync::OnceLock<std::sync::Arc<usvg::fontdb::Database>> = std::sync::OnceLock::new();
+    let fontdb = FONTS
+        .get_or_init(|| {
+            let mut db = usvg::fontdb::Database::new();
+            db.load_system_fonts();
+            // The generic families name fonts a Linux machine may lack (Arial, Times New
+            // Roman): they fall to a font it has.
+            let families: Vec<String> =
+                db.faces().filter_map(|f| f.families.first().map(|(name, _)| name.clone())).collect();
+            let pick = |wanted: &[&str]| {
+                wanted
+                    .iter()
+                    .find_map(|w| families.iter().find(|f| f.as_str() == *w))
+                    .or_else(|| families.first())
+                    .cloned()
+            };
+            if let Some(f) = pick(&["DejaVu Sans", "Liberation Sans", "Noto Sans"]) {
+                db.set_sans_serif_family(f);
+            }
+            if let Some(f) = pick(&["DejaVu Serif", "Liberation Serif", "Noto Serif"]) {
+                db.set_serif_family(f);
+            }
+            if let Some(f) = pick(&["DejaVu Sans Mono", "Liberation Mono", "Noto Sans Mono"]) {
+                db.set_monospace_family(f);
+            }
+            std::sync::Arc::new(db)
+        })
+        .clone();
+    let mut options = usvg::Options { resources_dir: None, fontdb, ..usvg::Options::default() };
     // Only images embedded in the document itself (data: URLs) are decoded.
     options.image_href_resolver.resolve_string = Box::new(|_, _| None);
     let tree = usvg::Tree::from_data(data, &options).map_err(|e| format!("not a valid SVG: {e}"))?;
@@ -146,5 +175,17 @@ mod tests {
         assert_eq!(img.dimensions(), (1280, 720));
         assert_eq!(img.get_pixel(320, 360).0, [0, 255, 0, 255], "the drawing's own rectangle");
         assert_eq!(img.get_pixel(960, 360).0[3], 0, "the linked file is not embedded");
+    }
+
+    #[test]
+    fn an_svg_overlays_labels_are_drawn() {
+        // Curators label overlays with text: it is drawn with the system's fonts (.ci/setup
+        // installs DejaVu), not left out.
+        let svg = br##"<svg xmlns="http://www.w3.org/2000/svg" width="16" height="9">
+  <text x="1" y="7" font-family="sans-serif" font-size="6" fill="#ffffff">Ear</text>
+</svg>"##;
+        let img = svg_to_rgba(svg).expect("an SVG with text");
+        let inked = img.pixels().filter(|p| p[3] > 128).count();
+        assert!(inked > 2000, "{inked} pixels of text drawn");
     }
 }

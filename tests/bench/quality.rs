@@ -242,6 +242,10 @@ fn plot(rows: &[Row], tolerance: &[ToleranceSeries], out_dir: &Path) -> anyhow::
     }
     chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw()?;
     root.present()?;
-    println!("\nplot: {}", svg.display());
+    drop(root);
+    // A PNG beside it, to look at without an SVG viewer.
+    let png = svg.with_extension("png");
+    kiosk::media::svg_to_rgba(&std::fs::read(&svg)?).map_err(anyhow::Error::msg)?.save(&png)?;
+    println!("\nplot: {} ({})", svg.display(), png.display());
     Ok(())
 }

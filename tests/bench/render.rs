@@ -18,7 +18,7 @@ use glam::DVec3;
 use kiosk::MappedStore;
 use kiosk_core::camera::Camera;
 use kiosk_core::{Cut, CutParams};
-use kiosk_render::RenderSettings;
+use kiosk_render::{RenderSettings, SplatMode};
 use plotters::prelude::*;
 use std::path::Path;
 use std::time::Instant;
@@ -75,9 +75,9 @@ fn main() -> anyhow::Result<()> {
         "\n## Frames at 1920×1080, 1 px cut, camera orbiting (GPU time included: each frame waits for the GPU)"
     );
     println!(
-        "| model | frames | median splats drawn | median ms per frame | M splats/s | median CPU ms cut update | median CPU ms render call (uploads, encoding) | MB uploaded in all |"
+        "| model | mode | frames | median splats drawn | median ms per frame | M splats/s | median CPU ms cut update | median CPU ms render call (uploads, encoding) | MB uploaded in all |"
     );
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|");
     for (name, store) in &models {
         let frames = if tradeoff_only {
             0
@@ -89,35 +89,43 @@ fn main() -> anyhow::Result<()> {
         if frames == 0 {
             continue;
         }
+        // The modes take turns at every frame of one orbit: side by side, same cut, same cache.
         let mut cut = Cut::root(store);
-        let (mut ms, mut splats, mut cut_ms, mut cpu_ms, mut uploaded) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), 0u64);
+        let modes = SplatMode::ALL.len();
+        let (mut ms, mut cpu_ms) = (vec![Vec::new(); modes], vec![Vec::new(); modes]);
+        let (mut splats, mut cut_ms, mut uploaded) = (Vec::new(), Vec::new(), 0u64);
         for k in 0..frames {
             let cam = orbit(store, k, 0.7);
             let v = cam.view_params(store, size).expect("view");
             let t0 = Instant::now();
             cut.update(store, &v, &CutParams::default());
-            let t1 = Instant::now();
+            cut_ms.push(t0.elapsed().as_secs_f64() * 1e3);
             let nodes = cut.visible_nodes(store, &v);
-            let st = renderer.render(&gpu, store, &nodes, &cam, &view, size, &settings)?;
-            let t2 = Instant::now();
-            gpu.wait()?;
-            let t3 = Instant::now();
-            cut_ms.push((t1 - t0).as_secs_f64() * 1e3);
-            cpu_ms.push((t2 - t1).as_secs_f64() * 1e3);
-            ms.push((t3 - t0).as_secs_f64() * 1e3);
-            splats.push(st.splats as f64);
-            uploaded += st.uploaded_bytes;
+            for (i, (_, mode)) in SplatMode::ALL.into_iter().enumerate() {
+                let settings = RenderSettings { mode, ..settings };
+                let t1 = Instant::now();
+                let st = renderer.render(&gpu, store, &nodes, &cam, &view, size, &settings)?;
+                let t2 = Instant::now();
+                gpu.wait()?;
+                cpu_ms[i].push((t2 - t1).as_secs_f64() * 1e3);
+                ms[i].push(t1.elapsed().as_secs_f64() * 1e3);
+                if i == 0 {
+                    splats.push(st.splats as f64);
+                }
+                uploaded += st.uploaded_bytes;
+            }
         }
-        let m = median(ms.clone());
         let s = median(splats);
-        println!(
-            "| {name} | {frames} | {s:.0} | {m:.0} | {:.2} | {:.3} | {:.1} | {:.0} |",
-            s / m / 1e3,
-            median(cut_ms),
-            median(cpu_ms),
-            uploaded as f64 / 1e6
-        );
+        let cut_ms = median(cut_ms);
+        for (i, (mode, _)) in SplatMode::ALL.into_iter().enumerate() {
+            let m = median(ms[i].clone());
+            println!(
+                "| {name} | {mode} | {frames} | {s:.0} | {m:.0} | {:.2} | {cut_ms:.3} | {:.1} | {:.0} |",
+                s / m / 1e3,
+                median(cpu_ms[i].clone()),
+                uploaded as f64 / 1e6
+            );
+        }
     }
 
     // Speed against accuracy on the real scan, at 960×540.

@@ -4,8 +4,7 @@
 //! is uploaded at every call.
 
 use crate::{
-    DEPTH_FORMAT, FrameUniforms, Gpu, RenderError, RenderSettings, SPLAT_WGSL, frame_binding, frame_uniforms,
-    read_back,
+    DEPTH_FORMAT, FrameUniforms, Gpu, RenderError, RenderSettings, frame_binding, frame_uniforms, read_back,
 };
 use glam::{DVec3, Vec3};
 use kiosk_core::camera::Camera;
@@ -81,16 +80,8 @@ impl MeshRenderer {
     /// A mesh renderer drawing into textures of `format`.
     pub fn new(gpu: &Gpu, format: wgpu::TextureFormat) -> Self {
         let device = &gpu.device;
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("splat.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(SPLAT_WGSL.into()),
-        });
-        let (layout, uniforms, group) = frame_binding(device);
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("mesh"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
+        let module = crate::surface_shader(device);
+        let (pipeline_layout, uniforms, group) = frame_binding(device, "mesh");
         const ATTRS: [wgpu::VertexAttribute; 3] =
             wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Unorm8x4];
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
