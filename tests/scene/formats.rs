@@ -327,6 +327,22 @@ fn a_low_poly_box_is_sampled_on_its_faces_without_holes() {
 }
 
 #[test]
+fn broken_glb_files_found_by_fuzzing_are_clear_errors() {
+    // Found by fuzzing: a declared length under 12 bytes overflowed the glTF crate's arithmetic.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz/glb-header-length-1.glb");
+    let e = read_all(&path, &ReadOptions::default()).expect_err("a broken header").to_string();
+    assert!(e.contains("GLB header: length") && e.contains("shorter than the 12-byte header"), "{e}");
+    // Found by fuzzing: a mesh naming accessors the file lacks made the crate's validation index
+    // out of range.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz/glb-accessor-index-1.glb");
+    let e = read_all(&path, &ReadOptions::default()).expect_err("missing accessors").to_string();
+    assert!(
+        e.contains("mesh 0 primitive 0") && e.contains("names accessor") && e.contains("the file has 0"),
+        "{e}"
+    );
+}
+
+#[test]
 fn compressed_and_broken_gltf_files_are_clear_errors() {
     // The Draco-compressed BoxTextured (Khronos glTF-Draco variant).
     let e = read_all(&data("BoxTextured-Draco.glb"), &ReadOptions::default()).expect_err("draco").to_string();

@@ -84,6 +84,20 @@ pub fn read(path: &Path, opts: &ReadOptions, sink: &mut dyn Sink) -> Result<Read
 
 /// The model's default scene as a surface.
 fn load(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError> {
+    // The crate subtracts the 12-byte header from the GLB's declared length unchecked.
+    if let Some(header) = bytes.strip_prefix(b"glTF") {
+        let declared = header.get(4..8).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+        match declared {
+            Some(n) if n >= 12 => {}
+            Some(n) => {
+                return Err(GltfError::Invalid(format!(
+                    "GLB header: length {n} is shorter than the 12-byte header"
+                ))
+                .into());
+            }
+            None => return Err(GltfError::Invalid("GLB header: truncated".into()).into()),
+        }
+    }
     let gltf = gltf::Gltf::from_slice_without_validation(bytes)
         .map_err(|e| GltfError::Invalid(format!("not a readable glTF: {e}")))?;
     let doc = &gltf.document;
@@ -94,6 +108,26 @@ fn load(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError> {
         }
         if !READ_EXTENSIONS.contains(&ext.as_str()) {
             return Err(GltfError::Unsupported { extension: ext.clone(), hint: "" }.into());
+        }
+    }
+    // The crate's validation looks a POSITION accessor up before checking its index: out of
+    // range, it would panic.
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let name = |k: &gltf::json::validation::Checked<gltf::json::mesh::Semantic>| match k {
+                gltf::json::validation::Checked::Valid(s) => format!("attribute {}", s.to_string()),
+                gltf::json::validation::Checked::Invalid => "an unknown attribute".to_string(),
+            };
+            let indices = prim.attributes.iter().map(|(k, v)| (name(k), v.value()));
+            for (what, i) in indices.chain(prim.indices.map(|v| ("indices".to_string(), v.value()))) {
+                if i >= json.accessors.len() {
+                    return Err(GltfError::Invalid(format!(
+                        "mesh {m} primitive {p}: {what} names accessor {i}; the file has {}",
+                        json.accessors.len()
+                    ))
+                    .into());
+                }
+            }
         }
     }
     // The crate's own validation, but for the required extensions it does not know and we read.
