@@ -388,11 +388,23 @@ fn material(
 /// Decodes an image of the file (in a buffer view, a data URI or a file beside it).
 fn image_texture(
     image: &gltf::Image,
-    _doc: &gltf::Document,
+    doc: &gltf::Document,
     buffers: &[Vec<u8>],
     dir: &Path,
 ) -> Result<Texture, ReadError> {
     let name = format!("image {}", image.index());
+    // The crate's `source` unwraps what the file may lack: checked first.
+    let json = &doc.as_json().images[image.index()];
+    let views = doc.as_json().buffer_views.len();
+    let missing = match (&json.buffer_view, &json.uri) {
+        (Some(v), _) if v.value() >= views => Some(format!("buffer view {} of {views}", v.value())),
+        (Some(_), _) if json.mime_type.is_none() => Some("a mimeType beside its buffer view".to_string()),
+        (None, None) => Some("a uri or a buffer view".to_string()),
+        _ => None,
+    };
+    if let Some(what) = missing {
+        return Err(TextureError { source_name: name, msg: format!("the image has no {what}") }.into());
+    }
     match image.source() {
         gltf::image::Source::View { view, .. } => {
             let bytes = view_bytes(&view, buffers).map_err(|msg| TextureError {
