@@ -396,11 +396,14 @@ pub fn similarity_far(view: &Camera, ctx: &ViewContext<'_>) -> f64 {
 }
 
 /// View distance d = (1/S) Σ ‖P V_view s − P V_cur s‖ in NDC over the samples seen by both
-/// (thesis 9.7.2); ∞ when none is.
+/// (thesis 9.7.2); ∞ when none is. One P, the current projection, for both: a view is reached
+/// when the visitor stands where it stands, whatever field of view it was authored with (in
+/// real-scale mode the kiosk keeps its own).
 pub fn view_distance(view: &Camera, ctx: &ViewContext<'_>) -> f64 {
     let (mut sum, mut n) = (0.0, 0usize);
+    let view = Camera { fov_y: ctx.camera.fov_y, ..*view };
     for &s in ctx.samples {
-        if let (Some(a), Some(b)) = (ndc2(view, s, ctx.aspect), ndc2(&ctx.camera, s, ctx.aspect))
+        if let (Some(a), Some(b)) = (ndc2(&view, s, ctx.aspect), ndc2(&ctx.camera, s, ctx.aspect))
             && b.x.abs() <= 1.0
             && b.y.abs() <= 1.0
         {
@@ -1009,6 +1012,20 @@ mod tests {
         n.roi_bbox = everything();
         let sigma = similarity(&graph_of(vec![n]), 0, &c, &RecSettings::default());
         assert!(sigma > 1.0 - 1e-9, "{sigma}");
+    }
+
+    #[test]
+    fn the_view_distance_projects_both_views_with_the_current_projection() {
+        // Thesis 9.7.2: one P. Standing at a view authored with a narrower field of view (as in
+        // real-scale mode, where the kiosk keeps its own) is being at that view.
+        let samples = wall();
+        let c = ctx(front(), &samples);
+        let n = node_at("zoomed", front().eye, DVec3::ZERO, 0.4);
+        let d = view_distance(&n.view, &c);
+        assert!(d < 1e-9, "{d}");
+        // A view elsewhere is still at a distance.
+        let away = node_at("left", DVec3::new(-2.0, 0.0, 5.0), DVec3::new(-2.0, 0.0, 0.0), 0.4);
+        assert!(view_distance(&away.view, &c) > 0.3);
     }
 
     #[test]
