@@ -361,6 +361,26 @@ pub struct Renderer {
     targets: Vec<Targets>,
 }
 
+/// A 2D texture of `(w, h)` pixels (at least 1 a side), one mip level, one sample.
+pub(crate) fn texture_2d(
+    device: &wgpu::Device,
+    label: &str,
+    (w, h): (u32, u32),
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width: w.max(1), height: h.max(1), depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}
+
 /// The surface shader (shaders/splat.wgsl), shared by the splat and the mesh pipelines.
 pub(crate) fn surface_shader(device: &wgpu::Device) -> wgpu::ShaderModule {
     device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -582,21 +602,8 @@ impl Renderer {
             let t = self.targets.remove(i);
             self.targets.insert(0, t);
         } else {
-            let extent =
-                wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 };
             let tex = |label, format, usage| {
-                gpu.device
-                    .create_texture(&wgpu::TextureDescriptor {
-                        label: Some(label),
-                        size: extent,
-                        mip_level_count: 1,
-                        sample_count: 1,
-                        dimension: wgpu::TextureDimension::D2,
-                        format,
-                        usage,
-                        view_formats: &[],
-                    })
-                    .create_view(&Default::default())
+                texture_2d(&gpu.device, label, size, format, usage).create_view(&Default::default())
             };
             let attach = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
             let depth = tex("depth", DEPTH_FORMAT, attach);
@@ -856,16 +863,8 @@ impl Renderer {
 
     /// A colour texture of this renderer's format that can be drawn into and read back.
     pub fn offscreen_target(&self, gpu: &Gpu, (w, h): (u32, u32)) -> (wgpu::Texture, wgpu::TextureView) {
-        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("offscreen"),
-            size: wgpu::Extent3d { width: w.max(1), height: h.max(1), depth_or_array_layers: 1 },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: self.format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
+        let texture = texture_2d(&gpu.device, "offscreen", (w, h), self.format, usage);
         let view = texture.create_view(&Default::default());
         (texture, view)
     }

@@ -153,18 +153,7 @@ impl MeshRenderer {
             contents: bytemuck::cast_slice(&mesh.triangles),
             usage: wgpu::BufferUsages::INDEX,
         });
-        let texture = |label, format, usage| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
-        };
+        let texture = |label, format, usage| crate::texture_2d(device, label, (w, h), format, usage);
         let color = texture(
             "mesh image",
             self.format,
