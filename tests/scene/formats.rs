@@ -1,8 +1,8 @@
 //! Survey formats (LAS/LAZ, E57) read from real files of public test suites
 //! (`tests/data/formats/SOURCES.md`), and the formats the importer refuses, by content.
 
-use kiosk_import::ReadOptions;
 use kiosk_import::source::read_all;
+use kiosk_import::{InputPoint, ReadOptions};
 use std::path::{Path, PathBuf};
 
 fn data(name: &str) -> PathBuf {
@@ -324,6 +324,61 @@ fn a_low_poly_box_is_sampled_on_its_faces_without_holes() {
     }
     // Flat faces keep flat normals (the corners' averaged normals are not interpolated).
     assert!(points.iter().all(|p| p.normal.abs().max_element() > 0.999), "a bent normal");
+}
+
+#[test]
+fn a_textured_ply_is_sampled_like_the_same_mesh_as_a_textured_obj() {
+    // MeshLab's fuze bottle, exported both ways with one texture: per-face `texcoord` lists in
+    // the PLY (`comment TextureFile fuze uv.jpg`), `vt` + MTL in the OBJ. The OBJ+MTL path is
+    // the oracle: the same triangles and texture give the same samples.
+    let ply = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/ply-corpus/ok/trimesh/fuze.ply");
+    let (p, prep) = read_all(&ply, &ReadOptions::default()).expect("textured PLY");
+    let (o, _) = read_all(&data("fuze/fuze.obj"), &ReadOptions::default()).expect("textured OBJ");
+    assert!(prep.has_colors);
+    assert!(p.len() > 20 * 502, "{} samples: the surface is sampled, not only the 502 vertices", p.len());
+    let rel = (p.len() as f64 - o.len() as f64).abs() / o.len() as f64;
+    assert!(rel < 0.01, "PLY {} samples, OBJ {}", p.len(), o.len());
+    // Every PLY sample has an OBJ sample at its place with its colour (the texture's, not the
+    // file's per-face RGBA).
+    let grid = 1e-4;
+    let key = |q: &InputPoint| (q.pos / grid).round().as_i64vec3().to_array();
+    let by_place: std::collections::HashMap<[i64; 3], [u8; 4]> =
+        o.iter().map(|q| (key(q), q.color)).collect();
+    let (mut found, mut same) = (0usize, 0usize);
+    for q in &p {
+        if let Some(c) = by_place.get(&key(q)) {
+            found += 1;
+            same += usize::from((0..3).all(|k| c[k].abs_diff(q.color[k]) <= 2));
+        }
+    }
+    assert!(
+        found as f64 > 0.95 * p.len() as f64,
+        "{found} of {} PLY samples at an OBJ sample's place",
+        p.len()
+    );
+    assert!(same as f64 > 0.99 * found as f64, "{same} of {found} with the same colour");
+    let distinct: std::collections::HashSet<[u8; 4]> = p.iter().map(|q| q.color).collect();
+    assert!(distinct.len() > 1000, "{} colours: the texture's detail", distinct.len());
+}
+
+#[test]
+fn a_textured_ply_without_its_image_names_it() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let ply = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/ply-corpus/ok/trimesh/fuze.ply");
+    std::fs::copy(&ply, dir.path().join("fuze.ply")).expect("copy");
+    let e =
+        read_all(&dir.path().join("fuze.ply"), &ReadOptions::default()).expect_err("no texture").to_string();
+    assert!(e.contains("fuze uv.jpg") && e.contains("not found"), "{e}");
+    // The same file read as a stream (no directory to look in) is its vertices, with a warning.
+    let mut r = std::io::BufReader::new(std::fs::File::open(&ply).expect("open"));
+    let mut n = 0u64;
+    let rep = kiosk_import::source::read_ply(&mut r, &ReadOptions::default(), &mut |_| {
+        n += 1;
+        Ok(())
+    })
+    .expect("vertices");
+    assert_eq!(n, 502);
+    assert!(rep.warnings.iter().any(|w| w.contains("fuze uv.jpg")), "{:?}", rep.warnings);
 }
 
 #[test]

@@ -186,6 +186,8 @@ pub struct Header {
     pub lines: usize,
     /// Tolerated oddities.
     pub warnings: Vec<String>,
+    /// Texture images named by `comment TextureFile NAME` lines (MeshLab, Agisoft), in order.
+    pub texture_files: Vec<String>,
 }
 
 /// Why a PLY file cannot be read.
@@ -227,6 +229,7 @@ pub fn read_header(r: &mut (impl BufRead + ?Sized)) -> Result<Header, PlyError> 
     let mut format = None;
     let mut elements: Vec<Element> = Vec::new();
     let mut warnings = Vec::new();
+    let mut texture_files = Vec::new();
     const MAX_HEADER_LINE: usize = 64 * 1024;
     loop {
         buf.clear();
@@ -271,7 +274,15 @@ pub fn read_header(r: &mut (impl BufRead + ?Sized)) -> Result<Header, PlyError> 
                 }
                 format = Some(f);
             }
-            "comment" | "obj_info" => {}
+            "comment" => {
+                let rest = trimmed["comment".len()..].trim();
+                if let Some(name) = rest.strip_prefix("TextureFile").map(str::trim)
+                    && !name.is_empty()
+                {
+                    texture_files.push(name.to_string());
+                }
+            }
+            "obj_info" => {}
             "element" => {
                 let name = tok.next().ok_or_else(|| herr(line_no, "element without a name"))?;
                 let count = tok
@@ -306,7 +317,7 @@ pub fn read_header(r: &mut (impl BufRead + ?Sized)) -> Result<Header, PlyError> 
         }
     }
     let format = format.ok_or_else(|| herr(line_no, "the header has no 'format' line"))?;
-    Ok(Header { format, elements, lines: line_no, warnings })
+    Ok(Header { format, elements, lines: line_no, warnings, texture_files })
 }
 
 fn short(s: &str) -> String {

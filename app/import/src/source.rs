@@ -189,7 +189,7 @@ pub fn read_file(path: &Path, opts: &ReadOptions, sink: &mut dyn Sink) -> Result
         Format::Las => Ok(crate::formats::las::read(path, sink)?),
         Format::E57 => Ok(crate::formats::e57::read(path, sink)?),
         Format::Obj => crate::formats::obj::read_obj_in(&mut open(path)?, path.parent(), opts, sink),
-        Format::Ply => read_ply(&mut open(path)?, opts, sink),
+        Format::Ply => crate::formats::ply::read_ply_in(&mut open(path)?, path.parent(), opts, sink),
         Format::Gltf => crate::formats::gltf::read(path, opts, sink),
     }
 }

@@ -1,12 +1,22 @@
 //! PLY files as points: the `vertex` element's positions, normals and colours (any scalar type,
 //! colours scaled to 8 bits), and the `face` element's polygons for the mesh terms of
 //! [`crate::formats::mesh`]. The low-level parser is [`crate::ply`].
+//!
+//! A textured PLY (MeshLab, Agisoft: `comment TextureFile NAME`, the image beside the file,
+//! with per-face `texcoord` lists or per-vertex `s t`, `u v`, `texture_u texture_v`) is sampled
+//! on its surface at texel density like a textured OBJ ([`crate::formats::surface`]); its first
+//! texture serves every face (a `texnumber` per face is not read) and alone gives the colour
+//! (MeshLab writes its default grey as the vertices' colour of a textured mesh).
 
 use super::mesh::{Buffered, dropped_vertex, polygon_triangles};
+use super::surface::{Material, Surface, Tri};
+use super::texture::Texture;
 use crate::ply::{self, PlyError, PropKind};
 use crate::source::{InputPoint, ReadError, ReadOptions, ReadReport, Sink};
 use glam::{DVec3, Vec3};
 use std::io::BufRead;
+use std::path::Path;
+use std::sync::Arc;
 
 pub(crate) fn color_channel(v: f64, ty: ply::Scalar) -> u8 {
     use ply::Scalar::*;
@@ -19,9 +29,19 @@ pub(crate) fn color_channel(v: f64, ty: ply::Scalar) -> u8 {
     if x.is_finite() { x.round().clamp(0.0, 255.0) as u8 } else { 0 }
 }
 
-/// Reads a PLY stream.
+/// Reads a PLY stream (its textures, if any, are not looked for: [`read_ply_in`]).
 pub fn read_ply(
     r: &mut (dyn BufRead + Send),
+    opts: &ReadOptions,
+    sink: &mut dyn Sink,
+) -> Result<ReadReport, ReadError> {
+    read_ply_in(r, None, opts, sink)
+}
+
+/// Reads a PLY stream whose texture files (`comment TextureFile`) are in `dir`.
+pub fn read_ply_in(
+    r: &mut (dyn BufRead + Send),
+    dir: Option<&Path>,
     opts: &ReadOptions,
     sink: &mut dyn Sink,
 ) -> Result<ReadReport, ReadError> {
@@ -73,6 +93,39 @@ pub fn read_ply(
         matches!(f.props[li].kind, PropKind::List { .. }).then_some((fi, li))
     });
     let use_faces = face.is_some() && v.count <= opts.face_vertex_limit;
+    // Texture coordinates: per vertex, or per face corner.
+    let vertex_uv = [["s", "t"], ["u", "v"], ["texture_u", "texture_v"], ["texture_s", "texture_t"]]
+        .into_iter()
+        .find_map(|[a, b]| Some([scalar(a)?.0, scalar(b)?.0]));
+    let face_uv = face.and_then(|(fi, _)| {
+        let f = &header.elements[fi];
+        f.prop("texcoord").filter(|&i| matches!(f.props[i].kind, PropKind::List { .. }))
+    });
+    let texture = match (header.texture_files.first(), vertex_uv.is_some() || face_uv.is_some()) {
+        (Some(name), true) if use_faces => match dir {
+            Some(dir) => Some(Arc::new(Texture::load(&dir.join(name))?)),
+            None => {
+                report
+                    .warnings
+                    .push(format!("texture '{name}' not looked for: the file's directory is unknown"));
+                None
+            }
+        },
+        (Some(name), _) => {
+            report
+                .warnings
+                .push(format!("texture '{name}' unused: the file has no texture coordinates on faces"));
+            None
+        }
+        (None, _) => None,
+    };
+    if header.texture_files.len() > 1 {
+        report.warnings.push(format!(
+            "{} texture files: the first ('{}') serves every face",
+            header.texture_files.len(),
+            header.texture_files[0]
+        ));
+    }
     if face.is_some() && !use_faces {
         report.warnings.push(format!(
             "{} vertices exceed the face-normal limit ({}): faces ignored, normals estimated",
@@ -82,7 +135,7 @@ pub fn read_ply(
     let mut buffered = Buffered { fill: super::mesh::Fill::from_options(opts), ..Default::default() };
     // The vertices a face may refer to, when every vertex comes before the faces.
     let vertices = face.filter(|&(fi, _)| vi < fi).and_then(|_| usize::try_from(v.count).ok());
-    buffered.streamed = use_faces && vertices.is_some() && normal_idx.is_none();
+    buffered.streamed = use_faces && vertices.is_some() && normal_idx.is_none() && texture.is_none();
     if use_faces {
         // Every vertex is kept until the faces are applied: room for them at once, up to 4 Mi
         // (a broken header's count takes no more; the buffer grows past that as rows come).
@@ -103,7 +156,10 @@ pub fn read_ply(
         use_faces,
         drop_invalid: opts.drop_invalid,
         vertices,
+        vertex_uv: vertex_uv.filter(|_| texture.is_some()),
+        face_uv: face_uv.filter(|_| texture.is_some() && vertex_uv.is_none()),
     };
+    let (mut uvs, mut tri_uvs) = (Vec::new(), Vec::new());
     let mut dropped = 0u64;
     let mut sink_err = None;
     let body_warnings = ply::read_body_converted(r, &header, &conv, |out: &mut PlyOut| {
@@ -112,6 +168,8 @@ pub fn read_ply(
         dropped += out.dropped;
         if use_faces {
             buffered.points.append(&mut out.points);
+            uvs.append(&mut out.uvs);
+            tri_uvs.append(&mut out.tri_uvs);
             if buffered.streamed {
                 buffered.accumulate(&out.tris);
             } else {
@@ -138,9 +196,77 @@ pub fn read_ply(
     if dropped > 0 {
         report.warnings.push(format!("{dropped} vertex row(s) with non-finite coordinates dropped"));
     }
+    if let Some(texture) = texture {
+        return sample_textured(buffered, &uvs, &tri_uvs, texture, opts, report, sink);
+    }
     if use_faces {
         buffered.finish(&mut report, sink)?;
     }
+    Ok(report)
+}
+
+/// A textured PLY sampled on its surface: every triangle with the texture, its corners' texture
+/// coordinates per vertex (`uvs`) or per triangle (`tri_uvs`); vertices in no triangle are
+/// passed on as they are.
+fn sample_textured(
+    buffered: Buffered,
+    uvs: &[[f32; 2]],
+    tri_uvs: &[[[f32; 2]; 3]],
+    texture: Arc<Texture>,
+    opts: &ReadOptions,
+    mut report: ReadReport,
+    sink: &mut dyn Sink,
+) -> Result<ReadReport, ReadError> {
+    let n = buffered.points.len();
+    if let Some(t) = buffered.tris.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
+        return Err(ReadError::Unusable(format!(
+            "a face refers to vertex {} but the file has {n} vertices (indices start at 0)",
+            t.iter().max().copied().unwrap_or(0)
+        )));
+    }
+    let points = buffered.points;
+    // PLY's v runs up from the bottom of the image; the sampler's down from the top.
+    let flip = |[u, v]: [f32; 2]| [u, 1.0 - v];
+    let tris: Vec<Tri> = buffered
+        .tris
+        .iter()
+        .enumerate()
+        .map(|(k, &v)| {
+            let uv = match tri_uvs.get(k) {
+                Some(corners) => corners.map(flip),
+                None => v.map(|i| flip(uvs.get(i as usize).copied().unwrap_or([0.0; 2]))),
+            };
+            Tri { v, uv, material: 0 }
+        })
+        .collect();
+    let mut in_tri = vec![false; n];
+    for t in &tris {
+        for i in t.v {
+            in_tri[i as usize] = true;
+        }
+    }
+    let lone: Vec<InputPoint> = points
+        .iter()
+        .zip(&in_tri)
+        .filter(|(p, used)| !**used && p.pos.is_finite())
+        .map(|(p, _)| *p)
+        .collect();
+    if !lone.is_empty() {
+        report.points += lone.len() as u64;
+        sink.points(lone).map_err(ReadError::Sink)?;
+    }
+    let surface = Surface {
+        positions: points.iter().map(|p| p.pos).collect(),
+        normals: if report.has_normals { points.iter().map(|p| p.normal).collect() } else { Vec::new() },
+        // The texture alone colours the surface: MeshLab writes its default grey as the vertices'
+        // colour of a textured mesh.
+        colors: Vec::new(),
+        tris,
+        materials: vec![Material { factor: [1.0; 4], texture: Some(texture), colored: true }],
+    };
+    let params = opts.sample_params(points.iter().map(|p| p.pos));
+    surface.sample(&params, &mut report, sink)?;
+    report.has_colors = true;
     Ok(report)
 }
 
@@ -162,6 +288,10 @@ pub(crate) struct PlyRows {
     /// The vertices a face may refer to, when every vertex comes before the faces (else the
     /// indices are checked once every vertex is read).
     vertices: Option<usize>,
+    /// Where a vertex row holds its texture coordinates, or a face row its corners' (a textured
+    /// file only).
+    vertex_uv: Option<[usize; 2]>,
+    face_uv: Option<usize>,
 }
 
 /// The rows of a run converted: its vertices (a dropped one as a placeholder where the faces
@@ -176,6 +306,9 @@ pub(crate) struct PlyOut {
     faces: u64,
     /// Whether a triangle's indices are still to be checked against the vertices.
     unchecked: bool,
+    /// Texture coordinates of the vertices, or of the triangles' corners (a textured file).
+    uvs: Vec<[f32; 2]>,
+    tri_uvs: Vec<[[f32; 2]; 3]>,
 }
 
 impl ply::Convert for PlyRows {
@@ -184,6 +317,8 @@ impl ply::Convert for PlyRows {
     fn clear(&self, out: &mut PlyOut) {
         out.points.clear();
         out.tris.clear();
+        out.uvs.clear();
+        out.tri_uvs.clear();
         (out.rows, out.dropped, out.faces, out.unchecked) = (0, 0, 0, false);
     }
 
@@ -196,6 +331,9 @@ impl ply::Convert for PlyRows {
                     out.dropped += 1;
                     if self.use_faces {
                         out.points.push(dropped_vertex(DVec3::new(x, y, z)));
+                        if self.vertex_uv.is_some() {
+                            out.uvs.push([0.0; 2]);
+                        }
                     }
                     return Ok(());
                 }
@@ -231,6 +369,9 @@ impl ply::Convert for PlyRows {
                 radius: 0.0,
                 spacing: 0.0,
             });
+            if let Some([u, v]) = self.vertex_uv {
+                out.uvs.push([row.values[u] as f32, row.values[v] as f32]);
+            }
         } else if let Some((fi, li)) = self.face
             && ei == fi
             && (self.use_faces || row.lists[li].len() < 3)
@@ -243,6 +384,19 @@ impl ply::Convert for PlyRows {
                 line: None,
                 msg,
             })?;
+            if let Some(ti) = self.face_uv {
+                let (corners, uv) = (row.lists[li].len(), &row.lists[ti]);
+                if uv.len() != 2 * corners {
+                    return Err(PlyError::Row {
+                        element: "face".into(),
+                        row: ri + 1,
+                        line: None,
+                        msg: format!("{} texcoord values for {corners} corners (2 per corner)", uv.len()),
+                    });
+                }
+                let at = |k: usize| [uv[2 * k] as f32, uv[2 * k + 1] as f32];
+                out.tri_uvs.extend((1..corners - 1).map(|k| [at(0), at(k), at(k + 1)]));
+            }
             out.unchecked |= self.vertices.is_none();
             out.faces += 1;
         }
