@@ -140,7 +140,7 @@ fn broken_survey_files_never_panic_and_errors_say_something() {
     // LAZ is not here: its decoder (the laz crate) can be made to ask for tens of gigabytes by a
     // corrupted chunk, which aborts the process whatever the reader does; panics it raises are
     // turned into errors (formats::guarded), the allocation is not bounded yet.
-    // The GLB and the glTF with a texture at 1/16 sample per texel, and a sample limit: a
+    // The GLB, the glTF and the textured PLY at 1/16 sample per texel, and a sample limit: a
     // mutated texture coordinate may ask for billions of samples, which is an error to see, not
     // a long run.
     let opts = ReadOptions { texel_density: 1.0 / 16.0, max_samples: 1 << 21, ..opts };
@@ -150,6 +150,7 @@ fn broken_survey_files_never_panic_and_errors_say_something() {
         "formats/ColouredCubeDouble.e57",
         "formats/box-textured/BoxTextured.glb",
         "formats/box-textured/BoxTexturedQuantized.gltf",
+        "ply-corpus/ok/trimesh/fuze.ply",
     ] {
         let good = std::fs::read(data(seed)).expect("seed file");
         let path = dir.path().join(seed.rsplit('/').next().expect("name"));
@@ -158,6 +159,11 @@ fn broken_survey_files_never_panic_and_errors_say_something() {
             for f in ["BoxTexturedQuantized.bin", "Cesium Logo Flat.png"] {
                 std::fs::copy(data(&format!("formats/box-textured/{f}")), dir.path().join(f)).expect("copy");
             }
+        }
+        if seed.ends_with("fuze.ply") {
+            // The texture it names beside it, unchanged: the textured-PLY path.
+            std::fs::copy(data("ply-corpus/ok/trimesh/fuze uv.jpg"), dir.path().join("fuze uv.jpg"))
+                .expect("copy");
         }
         for round in 0..150 {
             let mut b = good.clone();
