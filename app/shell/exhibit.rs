@@ -1,11 +1,14 @@
 //! Exhibits on disk: a directory holding a model, as a store (`*.kstore`) or a scan
-//! (`*.ply`, `*.ply.gz`, `*.obj`, `*.las`, `*.laz`, `*.e57`) that is imported on first use into a
-//! cache.
+//! (`*.ply`, `*.ply.gz`, `*.obj`, `*.glb`, `*.gltf`, `*.las`, `*.laz`, `*.e57`) that is imported
+//! on first use into a cache.
 
 use crate::MappedStore;
 use crate::import::{ImportOptions, OutputLock, import_locked};
 use anyhow::Context;
 use std::path::{Path, PathBuf};
+
+/// The endings of the scans an exhibit may hold instead of a store.
+const SCANS: [&str; 9] = [".ply", ".ply.gz", ".obj", ".obj.gz", ".glb", ".gltf", ".las", ".laz", ".e57"];
 
 /// Finds the model of an exhibit directory: its store if it has one, else its scan.
 pub fn model_file(dir: &Path) -> anyhow::Result<PathBuf> {
@@ -22,10 +25,13 @@ pub fn model_file(dir: &Path) -> anyhow::Result<PathBuf> {
         .into_iter()
         .find(|p| {
             let n = name(p);
-            [".ply", ".ply.gz", ".obj", ".obj.gz", ".las", ".laz", ".e57"].iter().any(|e| n.ends_with(e))
+            SCANS.iter().any(|e| n.ends_with(e))
         })
         .with_context(|| {
-            format!("{}: no model (*.kstore, *.ply, *.ply.gz, *.obj, *.las, *.laz or *.e57)", dir.display())
+            format!(
+                "{}: no model (*.kstore, *.ply, *.ply.gz, *.obj, *.glb, *.gltf, *.las, *.laz or *.e57)",
+                dir.display()
+            )
         })
 }
 
@@ -197,6 +203,18 @@ mod tests {
         std::fs::write(dir.path().join("exhibit.toml"), "upp = \"z\"\n").expect("write");
         let e = format!("{:#}", model_up(dir.path()).expect_err("unknown key"));
         assert!(e.contains("exhibit.toml") && e.contains("upp"), "{e}");
+    }
+
+    #[test]
+    fn a_gltf_scan_is_an_exhibits_model_and_a_store_comes_first() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let e = model_file(dir.path()).expect_err("empty").to_string();
+        assert!(e.contains("*.glb"), "{e}");
+        std::fs::write(dir.path().join("scene.bin"), b"").expect("write");
+        std::fs::write(dir.path().join("vase.glb"), b"").expect("write");
+        assert_eq!(model_file(dir.path()).expect("a glb"), dir.path().join("vase.glb"));
+        std::fs::write(dir.path().join("vase.kstore"), b"").expect("write");
+        assert_eq!(model_file(dir.path()).expect("a store"), dir.path().join("vase.kstore"));
     }
 
     #[test]

@@ -10,7 +10,7 @@ use anyhow::Context;
 use glam::DVec3;
 use kiosk_author::Project;
 use kiosk_core::camera::{Camera, orthonormal_up};
-use kiosk_render::{Gpu, Renderer};
+use kiosk_render::{Gpu, RenderSettings, Renderer};
 use std::path::Path;
 
 /// (id, eye, target, fov°, importance, en title, en text, it title, it text)
@@ -20,13 +20,19 @@ type Spec =
 /// (from, to, weight): `to` depends on `from` (ω: 1 mandatory, 0.8 strong, 0.2 weak).
 type Edge = (&'static str, &'static str, f64);
 
+/// A labelled point of a view's overlay: (node id, model point, label offset in pixels of the
+/// 1280×720 overlay, en label, it label).
+type Label = (&'static str, [f64; 3], [f64; 2], &'static str, &'static str);
+
 /// One exhibit: its directory under `content/`, its scan (the model file in that directory, copied
-/// there unchanged), its views and its dependencies.
+/// there unchanged), its views, its dependencies and the labels of its overlays (an exhibit
+/// without labels gets a drawn ring around each view's middle).
 struct Exhibit {
     dir: &'static str,
     scan: &'static str,
     nodes: &'static [Spec],
     edges: &'static [Edge],
+    labels: &'static [Label],
 }
 
 const EXHIBITS: &[Exhibit] = &[
@@ -35,8 +41,22 @@ const EXHIBITS: &[Exhibit] = &[
         scan: "demosthenes-low-res.obj",
         nodes: DEMOSTHENES,
         edges: DEMOSTHENES_EDGES,
+        labels: &[],
     },
-    Exhibit { dir: "nefertiti", scan: "nefertiti-lowres.obj", nodes: NEFERTITI, edges: NEFERTITI_EDGES },
+    Exhibit {
+        dir: "nefertiti",
+        scan: "nefertiti-lowres.obj",
+        nodes: NEFERTITI,
+        edges: NEFERTITI_EDGES,
+        labels: &[],
+    },
+    Exhibit {
+        dir: "belweder",
+        scan: "belweder-ot-1782.glb",
+        nodes: BELWEDER,
+        edges: BELWEDER_EDGES,
+        labels: BELWEDER_LABELS,
+    },
 ];
 
 /// The Demosthenes bust (`content/demosthenes/`): model units of about 2.7 for its height, +Y up,
@@ -275,6 +295,149 @@ const NEFERTITI_EDGES: &[Edge] = &[
     ("neck", "profile-left", 0.2),
 ];
 
+/// The Belweder OT 1782 television set (`content/belweder/`): a textured glTF in millimetres,
+/// +Y up; the cabinet spans x −465…110, y −468 (feet)…46, z −211…247, the screen toward −Z, the
+/// loudspeaker grille on the −X side, the back panel at z ≈ 247. The kiosk starts looking along
+/// −Z, at the back: the introduction is that view.
+const BELWEDER: &[Spec] = &[
+    (
+        "intro",
+        [-90.5, -210.85, 1528.2],
+        [-90.5, -210.85, 76.0],
+        35.0,
+        1.0,
+        "Belweder OT 1782",
+        "A Polish black-and-white television set, model OT 1782, sold under the name Belweder. We meet it from behind, the side only a repairer saw: a perforated panel, for inside it worked with vacuum tubes that grew hot. Turn it around to find its screen. The Virtual Museums of Małopolska digitised it in colour.",
+        "Belweder OT 1782",
+        "Un televisore polacco in bianco e nero, modello OT 1782, venduto con il nome Belweder. Lo incontriamo da dietro, il lato che vedeva solo il tecnico: un pannello forato, perché all'interno funzionava con valvole termoioniche che si scaldavano. Giratelo per trovare lo schermo. I Musei Virtuali della Piccola Polonia lo hanno digitalizzato a colori.",
+    ),
+    (
+        "front",
+        [-950.0, 150.0, -1250.0],
+        [-177.0, -215.0, 18.0],
+        35.0,
+        0.9,
+        "In the living room",
+        "From the front the set is a piece of furniture: a wooden cabinet, a rounded screen and a row of cream keys. It stood in the living room, where the family gathered in front of it.",
+        "In soggiorno",
+        "Di fronte l'apparecchio è un mobile: una cassa di legno, uno schermo arrotondato e una fila di tasti color crema. Stava in soggiorno, dove la famiglia si riuniva davanti allo schermo.",
+    ),
+    (
+        "screen",
+        [-177.0, -165.0, -1000.0],
+        [-177.0, -175.0, 0.0],
+        35.0,
+        0.9,
+        "The screen",
+        "The picture tube fills most of the front. Its screen bulges and has rounded corners, because the glass had to resist the vacuum inside the tube. Switched off, it is grey-green; the picture it showed was black and white.",
+        "Lo schermo",
+        "Il tubo catodico occupa gran parte del fronte. Lo schermo è bombato e ha gli angoli arrotondati, perché il vetro doveva resistere al vuoto all'interno del tubo. Spento è grigio-verde; l'immagine che mostrava era in bianco e nero.",
+    ),
+    (
+        "controls",
+        [-177.0, -360.0, -700.0],
+        [-177.0, -375.0, -190.0],
+        30.0,
+        0.7,
+        "Keys and knobs",
+        "Below the screen, a row of cream piano keys sits between two winged knobs. These were the set's controls, worked by hand from the armchair's distance: there was no remote control. Look at the worn edges of the keys.",
+        "Tasti e manopole",
+        "Sotto lo schermo, una fila di tasti a pianoforte color crema sta tra due manopole ad alette. Erano i comandi dell'apparecchio, azionati a mano: non c'era il telecomando. Osservate i bordi consumati dei tasti.",
+    ),
+    (
+        "cabinet",
+        [-1050.0, 650.0, -800.0],
+        [-177.0, -180.0, 18.0],
+        35.0,
+        0.6,
+        "A wooden cabinet",
+        "The cabinet is covered with a glossy wood veneer and has softly rounded edges. The texture of the scan keeps the grain of the wood and the small marks of decades of use.",
+        "Un mobile di legno",
+        "Il mobile è rivestito da un'impiallacciatura lucida e ha gli spigoli morbidamente arrotondati. La texture della scansione conserva le venature del legno e i piccoli segni di decenni d'uso.",
+    ),
+    (
+        "speaker",
+        [-1350.0, -130.0, 60.0],
+        [-465.0, -150.0, 60.0],
+        32.0,
+        0.5,
+        "The side grille",
+        "On the side, a ribbed cream grille covers an opening in the cabinet, the likely place of the loudspeaker. The sound came out sideways while the screen faced the room.",
+        "La griglia laterale",
+        "Sul fianco, una griglia color crema a nervature copre un'apertura nel mobile, probabilmente l'altoparlante. Il suono usciva di lato mentre lo schermo guardava la stanza.",
+    ),
+    (
+        "tube-neck",
+        [-177.0, -150.0, 950.0],
+        [-177.0, -150.0, 250.0],
+        30.0,
+        0.4,
+        "The tube's neck",
+        "The picture tube was longer than the cabinet was deep. Its narrow neck, with the electron gun, pokes out at the back under this diamond-shaped cover.",
+        "Il collo del tubo",
+        "Il tubo catodico era più lungo della profondità del mobile. Il suo collo stretto, con il cannone elettronico, sporge sul retro sotto questa copertura a forma di rombo.",
+    ),
+    (
+        "label",
+        [-200.0, -330.0, 800.0],
+        [-200.0, -340.0, 247.0],
+        22.0,
+        0.6,
+        "Odbiornik telewizyjny",
+        "The printed label reads ODBIORNIK TELEWIZYJNY, Polish for television receiver. Below come OT and the model number, partly hidden by an orange mark, and made in Poland. Small print at the left gives the electrical data; a lightning sign warns of high voltage inside.",
+        "Odbiornik telewizyjny",
+        "L'etichetta stampata dice ODBIORNIK TELEWIZYJNY, in polacco ricevitore televisivo. Sotto vengono OT e il numero di modello, in parte coperto da un segno arancione, e made in Poland. Le scritte piccole a sinistra danno i dati elettrici; un fulmine avverte dell'alta tensione all'interno.",
+    ),
+    (
+        "cables",
+        [650.0, -200.0, 1250.0],
+        [-120.0, -390.0, 250.0],
+        35.0,
+        0.3,
+        "Antenna and mains",
+        "Two connections link the set to the world. At the left of the back, a flat brown twin-lead cable runs from the antenna socket; at the bottom, the mains cable ends in its plug. The picture came through the air, from a roof aerial.",
+        "Antenna e corrente",
+        "Due collegamenti uniscono l'apparecchio al mondo. A sinistra del retro, un cavo piatto marrone parte dalla presa d'antenna; in basso, il cavo di alimentazione termina con la sua spina. L'immagine arrivava via etere, da un'antenna sul tetto.",
+    ),
+];
+
+/// (from, to, weight): the introduction (the back, where the kiosk starts) opens the front and
+/// the back's details; the front's details follow; weak links go around the cabinet.
+const BELWEDER_EDGES: &[Edge] = &[
+    ("intro", "front", 1.0),
+    ("front", "screen", 1.0),
+    ("screen", "controls", 0.8),
+    ("intro", "tube-neck", 0.8),
+    ("intro", "label", 0.8),
+    ("label", "cables", 0.2),
+    ("front", "cabinet", 0.2),
+    ("cabinet", "speaker", 0.8),
+    ("controls", "speaker", 0.2),
+];
+
+/// The overlays' labels: each points at a feature of its view.
+const BELWEDER_LABELS: &[Label] = &[
+    ("intro", [-330.0, -40.0, 247.0], [-200.0, -180.0], "ventilation holes", "fori di aerazione"),
+    ("intro", [-177.0, -143.0, 260.0], [250.0, -150.0], "picture tube", "tubo catodico"),
+    ("intro", [-180.0, -350.0, 247.0], [230.0, 150.0], "label", "etichetta"),
+    ("front", [-177.0, -165.0, -175.0], [-330.0, -250.0], "screen", "schermo"),
+    ("front", [-465.0, -103.0, 106.0], [150.0, -230.0], "side grille", "griglia laterale"),
+    ("front", [-177.0, -378.0, -200.0], [-250.0, 120.0], "keys", "tasti"),
+    ("screen", [-177.0, -165.0, -175.0], [-380.0, -220.0], "picture tube", "tubo catodico"),
+    ("screen", [-177.0, -378.0, -200.0], [250.0, 110.0], "controls", "comandi"),
+    ("controls", [24.0, -381.0, -200.0], [40.0, 150.0], "knob", "manopola"),
+    ("controls", [-378.0, -381.0, -200.0], [-40.0, 150.0], "knob", "manopola"),
+    ("controls", [-177.0, -378.0, -205.0], [0.0, -170.0], "piano keys", "tasti a pianoforte"),
+    ("cabinet", [-177.0, 46.0, 18.0], [200.0, -160.0], "wood veneer", "impiallacciatura"),
+    ("speaker", [-465.0, -103.0, 106.0], [230.0, -150.0], "grille", "griglia"),
+    ("tube-neck", [-177.0, -143.0, 270.0], [280.0, -160.0], "diamond cover", "copertura a rombo"),
+    ("label", [-180.0, -344.0, 247.0], [220.0, -200.0], "television receiver", "ricevitore televisivo"),
+    ("label", [-173.0, -356.0, 247.0], [260.0, 130.0], "model number", "numero di modello"),
+    ("label", [-301.0, -391.0, 247.0], [60.0, 130.0], "high voltage", "alta tensione"),
+    ("cables", [-367.0, -322.0, 250.0], [-150.0, -170.0], "antenna socket", "presa d'antenna"),
+    ("cables", [265.0, -430.0, 355.0], [120.0, 150.0], "mains plug", "spina"),
+];
+
 fn main() -> anyhow::Result<()> {
     let wanted: Vec<String> = std::env::args().skip(1).collect();
     for w in &wanted {
@@ -325,23 +488,37 @@ fn build(ex: &Exhibit, gpu: &Gpu, renderer: &mut Renderer) -> anyhow::Result<()>
             image::Luma([if dx * dx + dy * dy <= 1.0 { 255 } else { 0 }])
         });
         p.paint_roi(id, &mask)?;
-        // An overlay drawing with alpha: a translucent ring around the region and a frame.
-        let overlay = image::RgbaImage::from_fn(1280, 720, |x, y| {
-            let (dx, dy) = ((f64::from(x) - 640.0) / 440.0, (f64::from(y) - 360.0) / 280.0);
-            let r = (dx * dx + dy * dy).sqrt();
-            if (r - 1.0).abs() < 0.012 {
-                image::Rgba([255, 196, 64, 220])
-            } else if !(24..1256).contains(&x) || !(24..696).contains(&y) {
-                image::Rgba([255, 196, 64, 60])
-            } else {
-                image::Rgba([0, 0, 0, 0])
+        let labels: Vec<&Label> = ex.labels.iter().filter(|l| l.0 == id).collect();
+        if labels.is_empty() {
+            // An overlay drawing with alpha: a translucent ring around the region and a frame.
+            let overlay = image::RgbaImage::from_fn(1280, 720, |x, y| {
+                let (dx, dy) = ((f64::from(x) - 640.0) / 440.0, (f64::from(y) - 360.0) / 280.0);
+                let r = (dx * dx + dy * dy).sqrt();
+                if (r - 1.0).abs() < 0.012 {
+                    image::Rgba([255, 196, 64, 220])
+                } else if !(24..1256).contains(&x) || !(24..696).contains(&y) {
+                    image::Rgba([255, 196, 64, 60])
+                } else {
+                    image::Rgba([0, 0, 0, 0])
+                }
+            });
+            let src = tmp.path().join(format!("{id}.png"));
+            overlay.save(&src)?;
+            for lang in ["en", "it"] {
+                if let Some(w) = p.attach_overlay(id, lang, &src)? {
+                    anyhow::bail!("{id}: {w}");
+                }
             }
-        });
-        let src = tmp.path().join(format!("{id}.png"));
-        overlay.save(&src)?;
-        for lang in ["en", "it"] {
-            if let Some(w) = p.attach_overlay(id, lang, &src)? {
-                anyhow::bail!("{id}: {w}");
+        } else {
+            // Labels pointing at the view's features, as SVG text, one drawing per language.
+            for (k, lang) in ["en", "it"].into_iter().enumerate() {
+                let svg = label_svg(&cam, &labels, k)?;
+                let src = tmp.path().join(format!("{id}-{lang}.svg"));
+                std::fs::write(&src, &svg)?;
+                if let Some(w) = p.attach_overlay(id, lang, &src)? {
+                    anyhow::bail!("{id}: {w}");
+                }
+                preview(&p, gpu, renderer, ex.dir, id, lang, &cam, &svg)?;
             }
         }
         narrate(&mut p, id, "en", x_en)?;
@@ -359,6 +536,80 @@ fn build(ex: &Exhibit, gpu: &Gpu, renderer: &mut Renderer) -> anyhow::Result<()>
         p.graph.nodes.len(),
         p.graph.edges.len()
     );
+    Ok(())
+}
+
+/// The overlay of a view as SVG (1280×720, the projection's aspect): for each label a ring on its
+/// model point, projected with the view's camera, and a leader line to its text, `lang`: 0 = en,
+/// 1 = it.
+fn label_svg(cam: &Camera, labels: &[&Label], lang: usize) -> anyhow::Result<String> {
+    let (w, h) = (1280.0, 720.0);
+    let mut svg = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\">\n"
+    );
+    for &&(id, point, [dx, dy], en, it) in labels {
+        let (x, y, _) =
+            cam.ndc(DVec3::from(point), w / h).with_context(|| format!("{id}: a label behind the eye"))?;
+        let (px, py) = ((x + 1.0) * 0.5 * w, (1.0 - y) * 0.5 * h);
+        anyhow::ensure!(
+            (0.0..w).contains(&px) && (0.0..h).contains(&py),
+            "{id}: label {en} outside the view"
+        );
+        let text =
+            if lang == 0 { en } else { it }.replace('&', "&amp;").replace('<', "&lt;").replace('\'', "&#39;");
+        let (tx, ty) = ((px + dx).clamp(20.0, w - 20.0), (py + dy).clamp(40.0, h - 30.0));
+        // The box around the text: about 0.6 em per character at 28 px.
+        let bw = 20.0 + 16.8 * text.chars().count() as f64;
+        let bx = if dx < 0.0 {
+            tx - bw
+        } else if dx > 0.0 {
+            tx
+        } else {
+            tx - bw / 2.0
+        };
+        let bx = bx.clamp(8.0, w - 8.0 - bw);
+        svg += &format!(
+            "  <circle cx=\"{px:.1}\" cy=\"{py:.1}\" r=\"14\" fill=\"none\" stroke=\"#ffc440\" stroke-width=\"4\"/>\n\
+             <line x1=\"{px:.1}\" y1=\"{py:.1}\" x2=\"{:.1}\" y2=\"{ty:.1}\" stroke=\"#ffc440\" stroke-width=\"3\"/>\n\
+             <rect x=\"{bx:.1}\" y=\"{:.1}\" width=\"{bw:.1}\" height=\"44\" rx=\"8\" fill=\"#000000\" fill-opacity=\"0.6\" stroke=\"#ffc440\" stroke-width=\"2\"/>\n\
+             <text x=\"{:.1}\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"28\" fill=\"#ffffff\">{text}</text>\n",
+            bx + bw / 2.0,
+            ty - 22.0,
+            bx + 8.0,
+            ty + 10.0,
+        );
+    }
+    svg += "</svg>\n";
+    Ok(svg)
+}
+
+/// Writes what a visitor sees at a node, its render with the overlay on top, to
+/// `target/tmp/demo_content/EXHIBIT-ID-LANG.png` for checking that the labels sit on the model.
+#[allow(clippy::too_many_arguments)]
+fn preview(
+    p: &Project,
+    gpu: &Gpu,
+    renderer: &mut Renderer,
+    exhibit: &str,
+    id: &str,
+    lang: &str,
+    cam: &Camera,
+    svg: &str,
+) -> anyhow::Result<()> {
+    let mut img = kiosk::snapshot::snapshot(
+        gpu,
+        renderer,
+        &p.store,
+        cam,
+        (1280, 720),
+        1.0,
+        &RenderSettings::default(),
+    )?;
+    let overlay = kiosk::media::svg_to_rgba(svg.as_bytes()).map_err(|e| anyhow::anyhow!("{id}: {e}"))?;
+    image::imageops::overlay(&mut img, &overlay, 0, 0);
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/tmp/demo_content");
+    std::fs::create_dir_all(&dir)?;
+    img.save(dir.join(format!("{exhibit}-{id}-{lang}.png")))?;
     Ok(())
 }
 

@@ -208,13 +208,21 @@ impl Project {
         })
     }
 
-    /// Attaches an overlay image (PNG with alpha) in a language: copies it into `overlays/`.
+    /// Attaches an overlay image (PNG with alpha, or SVG) in a language: copies it into `overlays/`.
     /// Returns a warning when its aspect ratio differs from the view's.
     pub fn attach_overlay(&mut self, id: &str, lang: &str, source: &Path) -> anyhow::Result<Option<String>> {
         let i = self.index(id)?;
         kiosk_core::graph::check_id(lang).map_err(|e| anyhow::anyhow!("language {e}"))?;
-        let (w, h) = image::image_dimensions(source)
-            .with_context(|| format!("{}: not a readable image", source.display()))?;
+        let (w, h) = if kiosk::media::is_svg(source) {
+            // An SVG is drawn at the view's size; it must draw.
+            let data = std::fs::read(source).with_context(|| format!("cannot read {}", source.display()))?;
+            kiosk::media::svg_to_rgba(&data)
+                .map_err(|e| anyhow::anyhow!("{}: not a readable SVG: {e}", source.display()))?
+                .dimensions()
+        } else {
+            image::image_dimensions(source)
+                .with_context(|| format!("{}: not a readable image", source.display()))?
+        };
         let ext = source.extension().and_then(|e| e.to_str()).unwrap_or("png").to_ascii_lowercase();
         let rel = format!("overlays/{id}-{lang}.{ext}");
         let dest = self.dir.join(&rel);

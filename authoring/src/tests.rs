@@ -134,6 +134,26 @@ fn ids_and_languages_that_would_name_files_outside_the_exhibit_are_refused() {
 }
 
 #[test]
+fn an_svg_overlay_with_labels_attaches_and_a_broken_one_is_refused() {
+    let dir = exhibit();
+    let (mut p, _) = Project::open(dir.path()).expect("open");
+    let id = p.capture(orbit(&p, 0.0), Some("front"), None).expect("capture");
+    let svg = dir.path().join("labels.svg");
+    std::fs::write(
+        &svg,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="1280" height="720"><text x="10" y="40">brow</text></svg>"#,
+    )
+    .expect("svg");
+    assert_eq!(p.attach_overlay(&id, "en", &svg).expect("attach"), None);
+    assert_eq!(p.graph.nodes[0].overlay.0.get("en").map(String::as_str), Some("overlays/front-en.svg"));
+    assert!(dir.path().join("overlays/front-en.svg").exists());
+    let broken = dir.path().join("broken.svg");
+    std::fs::write(&broken, "<svg").expect("svg");
+    let e = p.attach_overlay(&id, "it", &broken).expect_err("not an SVG");
+    assert!(e.to_string().contains("broken.svg"), "{e}");
+}
+
+#[test]
 fn saving_without_edits_keeps_the_file_byte_for_byte_even_what_could_not_be_read() {
     let dir = exhibit();
     let curated = r#"<?xml version="1.0" encoding="UTF-8"?>

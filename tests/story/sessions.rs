@@ -213,6 +213,44 @@ fn the_nefertiti_exhibit_story_loads_without_problems() {
     demo_exhibit_loads_and_plays("nefertiti");
 }
 
+#[test]
+fn the_belweder_exhibit_is_a_coloured_scan_of_a_million_samples_with_its_story() {
+    demo_exhibit_loads_and_plays("belweder");
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("content/belweder");
+    let (g, _) = kiosk::exhibit::open_graph(&dir).expect("readable").expect("a graph.xml");
+    // Every medium resolves inside the exhibit, as the kiosk opens it; the overlays are labelled
+    // drawings (SVG text).
+    for n in &g.nodes {
+        let files = n.overlay.0.values().chain(n.narration.0.values()).chain(&n.thumbnail).chain(&n.roi_mask);
+        for f in files {
+            kiosk::media::resolve(&dir, f).unwrap_or_else(|e| panic!("{}: {e}", n.id));
+        }
+        for (lang, f) in &n.overlay.0 {
+            let svg = std::fs::read_to_string(dir.join(f)).expect("overlay");
+            assert!(f.ends_with(".svg") && svg.contains("<text"), "{}/{lang}: {f}", n.id);
+        }
+    }
+    // The glTF is imported at texel density: over a million samples, each with its texture's
+    // colour (alpha 255), and the colours are those of a wooden cabinet, not a grey default.
+    let store = kiosk::exhibit::open_model(&dir).expect("model");
+    let h = store.header();
+    assert!(h.leaf_point_count >= 1_000_000, "{} samples", h.leaf_point_count);
+    let (mut coloured, mut warm, mut leaves) = (0u64, 0u64, 0u64);
+    for (i, node) in store.nodes().iter().enumerate() {
+        if !node.is_leaf() {
+            continue;
+        }
+        for s in store.splats(i as u32) {
+            leaves += 1;
+            coloured += u64::from(s.color[3] == 255);
+            warm += u64::from(i32::from(s.color[0]) - i32::from(s.color[2]) > 25);
+        }
+    }
+    assert_eq!(leaves, h.leaf_point_count);
+    assert_eq!(coloured, leaves, "every sample has a colour");
+    assert!(warm * 5 > leaves, "the wood's warm colours: {warm} of {leaves}");
+}
+
 /// A demo exhibit of `content/`: its graph loads without problems, uses mandatory, strong and
 /// weak dependencies, every node has its texts, media, thumbnail and ROI in both languages (the
 /// files exist), and a visitor who waits is shown the introduction first.

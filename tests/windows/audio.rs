@@ -3,10 +3,17 @@
 
 use kiosk::windows::audio::{Narrator, decode};
 
-/// Every narration of every demo exhibit, as its graph names them.
+/// Every narration of every demo exhibit (each directory of `content/`), as its graph names them.
 fn narrations() -> Vec<std::path::PathBuf> {
     let mut files = Vec::new();
-    for dir in ["demosthenes", "nefertiti"].map(|name| super::content().join(name)) {
+    let mut dirs: Vec<_> = std::fs::read_dir(super::content())
+        .expect("content/")
+        .map(|e| e.expect("an entry").path())
+        .filter(|p| p.is_dir())
+        .collect();
+    dirs.sort();
+    assert!(dirs.len() >= 3, "the demo exhibits: {dirs:?}");
+    for dir in dirs {
         let (graph, problems) = kiosk::exhibit::open_graph(&dir).expect("read graph.xml").expect("a graph");
         assert!(problems.is_empty(), "{}: {problems:?}", dir.display());
         for node in &graph.nodes {
@@ -19,7 +26,7 @@ fn narrations() -> Vec<std::path::PathBuf> {
 #[test]
 fn every_narration_of_the_demo_exhibits_decodes() {
     let files = narrations();
-    assert!(files.len() >= 30, "expected the demo exhibits' narrations, found {}", files.len());
+    assert!(files.len() >= 48, "expected the demo exhibits' narrations, found {}", files.len());
     for f in &files {
         let data = decode(f).unwrap_or_else(|e| panic!("{e}"));
         let seconds = data.frames.len() as f64 / f64::from(data.sample_rate);

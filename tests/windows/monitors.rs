@@ -162,8 +162,8 @@ impl Xorg {
         let session = dir.path().join("session.jsonl");
         std::fs::write(&session, script.session().to_jsonl()).expect("write session");
         let cfg = dir.path().join("kiosk.toml");
-        std::fs::write(&cfg, format!("content = {:?}\n{config}", content().display().to_string()))
-            .expect("config");
+        let content = content().display().to_string();
+        std::fs::write(&cfg, format!("content = {content:?}\n{}{config}", super::EXHIBITS)).expect("config");
         let trace = dir.path().join("trace.jsonl");
         let log = dir.path().join("kiosk.log");
         let runtime = std::env::temp_dir().join("xdg-runtime-isokiosk-tests");
