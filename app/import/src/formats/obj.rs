@@ -245,24 +245,7 @@ fn sample_materials(
         .collect();
     let params = opts.sample_params(points.iter().map(|p| p.pos));
     // Vertices in no triangle (a point cloud in the same file) are samples of their own.
-    let mut in_tri = vec![false; points.len()];
-    for t in &surface.tris {
-        for i in t.v {
-            if let Some(slot) = in_tri.get_mut(i as usize) {
-                *slot = true;
-            }
-        }
-    }
-    let lone: Vec<InputPoint> = points
-        .iter()
-        .zip(&in_tri)
-        .filter(|(p, used)| !**used && p.pos.is_finite())
-        .map(|(p, _)| *p)
-        .collect();
-    if !lone.is_empty() {
-        report.points += lone.len() as u64;
-        sink.points(lone).map_err(ReadError::Sink)?;
-    }
+    super::surface::pass_lone_vertices(&points, &surface.tris, &mut report, sink)?;
     surface.sample(&params, &mut report, sink)?;
     report.has_colors |= surface.materials.iter().any(|m| m.colored);
     report.faces_used = report.faces_used.min(surface.tris.len() as u64);

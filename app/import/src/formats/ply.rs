@@ -239,22 +239,7 @@ fn sample_textured(
             Tri { v, uv, material: 0 }
         })
         .collect();
-    let mut in_tri = vec![false; n];
-    for t in &tris {
-        for i in t.v {
-            in_tri[i as usize] = true;
-        }
-    }
-    let lone: Vec<InputPoint> = points
-        .iter()
-        .zip(&in_tri)
-        .filter(|(p, used)| !**used && p.pos.is_finite())
-        .map(|(p, _)| *p)
-        .collect();
-    if !lone.is_empty() {
-        report.points += lone.len() as u64;
-        sink.points(lone).map_err(ReadError::Sink)?;
-    }
+    super::surface::pass_lone_vertices(&points, &tris, &mut report, sink)?;
     let surface = Surface {
         positions: points.iter().map(|p| p.pos).collect(),
         normals: if report.has_normals { points.iter().map(|p| p.normal).collect() } else { Vec::new() },

@@ -101,6 +101,35 @@ const UNIT: u64 = 1 << 14;
 /// normals to be interpolated (30°).
 const SMOOTH_COS: f32 = 0.866;
 
+/// Passes on the vertices of `points` that no triangle of `tris` uses (a point cloud in the same
+/// file as a mesh sampled on its surface): they are samples of their own.
+pub(crate) fn pass_lone_vertices(
+    points: &[InputPoint],
+    tris: &[Tri],
+    report: &mut ReadReport,
+    sink: &mut dyn Sink,
+) -> Result<(), ReadError> {
+    let mut in_tri = vec![false; points.len()];
+    for t in tris {
+        for i in t.v {
+            if let Some(slot) = in_tri.get_mut(i as usize) {
+                *slot = true;
+            }
+        }
+    }
+    let lone: Vec<InputPoint> = points
+        .iter()
+        .zip(&in_tri)
+        .filter(|(p, used)| !**used && p.pos.is_finite())
+        .map(|(p, _)| *p)
+        .collect();
+    if !lone.is_empty() {
+        report.points += lone.len() as u64;
+        sink.points(lone).map_err(ReadError::Sink)?;
+    }
+    Ok(())
+}
+
 impl Surface {
     /// The spacing that the untextured triangles of a model of this size are sampled at: the
     /// diagonal of the bounding box of its vertices divided by `divisions` (0 when there are no
