@@ -757,7 +757,9 @@ impl Renderer {
     ) -> Result<FrameStats, RenderError> {
         let mut stats = FrameStats::default();
         let draw = self.resident(gpu, store, nodes, settings, &mut stats);
-        let (near, far) = depth_range(store, &draw, camera);
+        let eye = store.to_local(camera.eye);
+        let (reach, nearest) = drawn_reach(store, &draw, eye);
+        let (near, far) = depth_range_of(store.bbox(), eye, nearest);
         let uniforms =
             frame_uniforms(store.origin(), camera, size, (near, far), settings, self.format.is_srgb());
         gpu.queue.write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
@@ -849,7 +851,7 @@ impl Renderer {
                     shaded,
                     (&self.resolve_pipeline, &t.resolve_group),
                     clear_color(settings.background, self.format),
-                    screen_rect(store, &draw, &uniforms, size),
+                    screen_rect(reach, &uniforms, size),
                 );
             }
         }
@@ -947,34 +949,47 @@ pub fn read_back(
     image::RgbaImage::from_raw(w, h, rgba).ok_or_else(|| RenderError::Readback("size mismatch".into()))
 }
 
-/// The pixels (x, y, width, height) that `nodes` (their boxes grown by their largest splat) can
-/// cover, with 2 pixels to spare; `None` (everywhere) when a box reaches behind the eye.
-fn screen_rect<B: AsRef<[u8]>>(
+/// What the drawn nodes can reach: the union of their boxes grown by their largest splat, and
+/// its nearest point's distance to `eye` (store-local coordinates); one pass per frame serves
+/// the depth range and the resolve's screen rectangle.
+fn drawn_reach<B: AsRef<[u8]>>(
     store: &Store<B>,
     nodes: &[NodeId],
-    u: &FrameUniforms,
-    (w, h): (u32, u32),
-) -> Option<[u32; 4]> {
-    let mut bbox = kiosk_core::geom::Aabb::EMPTY;
+    eye: Vec3,
+) -> (kiosk_core::geom::Aabb, f32) {
+    let mut union = kiosk_core::geom::Aabb::EMPTY;
+    let mut nearest = f32::INFINITY;
     for &id in nodes {
         let n = store.node(id);
-        bbox = bbox.union(
-            kiosk_core::geom::Aabb { min: Vec3::from(n.bbox_min), max: Vec3::from(n.bbox_max) }
-                .inflate(n.radius_max),
-        );
+        let b = kiosk_core::geom::Aabb { min: Vec3::from(n.bbox_min), max: Vec3::from(n.bbox_max) }
+            .inflate(n.radius_max);
+        nearest = nearest.min(b.distance_squared(eye).sqrt());
+        union = union.union(b);
     }
-    if bbox.is_empty() {
+    (union, nearest)
+}
+
+/// The eight corners of a box.
+fn corners(b: kiosk_core::geom::Aabb) -> [Vec3; 8] {
+    std::array::from_fn(|k| {
+        Vec3::new(
+            if k & 1 == 0 { b.min.x } else { b.max.x },
+            if k & 2 == 0 { b.min.y } else { b.max.y },
+            if k & 4 == 0 { b.min.z } else { b.max.z },
+        )
+    })
+}
+
+/// The pixels (x, y, width, height) that `reach` (the drawn nodes' boxes, [`drawn_reach`]) can
+/// cover, with 2 pixels to spare; `None` (everywhere) when it reaches behind the eye.
+fn screen_rect(reach: kiosk_core::geom::Aabb, u: &FrameUniforms, (w, h): (u32, u32)) -> Option<[u32; 4]> {
+    if reach.is_empty() {
         return Some([0, 0, 0, 0]);
     }
     let clip = Mat4::from_cols_array_2d(&u.clip_from_camera);
     let offset = Vec3::from_slice(&u.offset[..3]);
     let (mut lo, mut hi) = (glam::Vec2::splat(f32::MAX), glam::Vec2::splat(f32::MIN));
-    for k in 0..8 {
-        let c = Vec3::new(
-            if k & 1 == 0 { bbox.min.x } else { bbox.max.x },
-            if k & 2 == 0 { bbox.min.y } else { bbox.max.y },
-            if k & 4 == 0 { bbox.min.z } else { bbox.max.z },
-        );
+    for c in corners(reach) {
         let p = clip * (c + offset).extend(1.0);
         if p.w <= 1e-6 * (c + offset).length().max(1e-30) {
             return None;
@@ -992,22 +1007,6 @@ fn screen_rect<B: AsRef<[u8]>>(
     Some([x0, y0, x1.saturating_sub(x0), y1.saturating_sub(y0)])
 }
 
-/// Near and far planes around the drawn nodes (their boxes grown by their largest splat) as
-/// seen from the camera: the nearest as far out as it can be, for the depth precision that the
-/// blended mode's epsilon test needs.
-fn depth_range<B: AsRef<[u8]>>(store: &Store<B>, nodes: &[NodeId], camera: &Camera) -> (f32, f32) {
-    let eye = store.to_local(camera.eye);
-    let nearest = nodes
-        .iter()
-        .map(|&id| {
-            let n = store.node(id);
-            let b = kiosk_core::geom::Aabb { min: Vec3::from(n.bbox_min), max: Vec3::from(n.bbox_max) };
-            b.inflate(n.radius_max).distance_squared(eye).sqrt()
-        })
-        .fold(f32::INFINITY, f32::min);
-    depth_range_of(store.bbox(), eye, nearest)
-}
-
 /// Near and far planes around `bbox` seen from `eye` (both in one local frame), with nothing
 /// nearer than `nearest` to draw: the near plane at half that, never nearer than 10⁻⁴ of the
 /// box's diagonal (the camera keeps farther from the surface than that).
@@ -1015,16 +1014,7 @@ fn depth_range_of(bbox: kiosk_core::geom::Aabb, eye: Vec3, nearest: f32) -> (f32
     let diag = f64::from(bbox.diagonal()).max(1e-30);
     let nearest =
         f64::from(bbox.distance_squared(eye).sqrt().max(if nearest.is_finite() { nearest } else { 0.0 }));
-    let corners = [bbox.min, bbox.max];
-    let mut farthest: f64 = 0.0;
-    for x in 0..2 {
-        for y in 0..2 {
-            for z in 0..2 {
-                let c = Vec3::new(corners[x].x, corners[y].y, corners[z].z);
-                farthest = farthest.max(f64::from((c - eye).length()));
-            }
-        }
-    }
+    let farthest = corners(bbox).iter().map(|c| f64::from((*c - eye).length())).fold(0.0, f64::max);
     let near = (nearest * 0.5).max(diag * 1e-4);
     // Beyond the farthest corner by the blended mode's push of the farthest splats.
     let far = (farthest * 1.05).max(near * 2.0);

@@ -114,17 +114,24 @@ impl Buffered {
         })
     }
 
+    /// Whether every kept triangle's indices name a vertex (faces read before their vertices
+    /// are checked once every vertex is read).
+    pub(crate) fn check_indices(&self) -> Result<(), ReadError> {
+        let n = self.points.len();
+        match self.tris.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
+            Some(t) => Err(ReadError::Unusable(format!(
+                "a face refers to vertex {} but the file has {n} vertices (indices start at 0)",
+                t.iter().max().copied().unwrap_or(0)
+            ))),
+            None => Ok(()),
+        }
+    }
+
     /// Applies the triangles and passes the vertices on with their face normals (where they
     /// have none of their own) and radii; then the samples of the large triangles' surfaces.
     pub(crate) fn finish(mut self, report: &mut ReadReport, sink: &mut dyn Sink) -> Result<(), ReadError> {
-        let n = self.points.len();
-        if self.unchecked
-            && let Some(t) = self.tris.iter().find(|t| t.iter().any(|&i| i as usize >= n))
-        {
-            return Err(ReadError::Unusable(format!(
-                "a face refers to vertex {} but the file has {n} vertices (indices start at 0)",
-                t.iter().max().copied().unwrap_or(0)
-            )));
+        if self.unchecked {
+            self.check_indices()?;
         }
         if !self.streamed && self.fill.is_some() && !self.tris.is_empty() {
             let big_r2 = self.big_r2();

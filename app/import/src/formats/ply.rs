@@ -217,13 +217,7 @@ fn sample_textured(
     mut report: ReadReport,
     sink: &mut dyn Sink,
 ) -> Result<ReadReport, ReadError> {
-    let n = buffered.points.len();
-    if let Some(t) = buffered.tris.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
-        return Err(ReadError::Unusable(format!(
-            "a face refers to vertex {} but the file has {n} vertices (indices start at 0)",
-            t.iter().max().copied().unwrap_or(0)
-        )));
-    }
+    buffered.check_indices()?;
     let points = buffered.points;
     // PLY's v runs up from the bottom of the image; the sampler's down from the top.
     let flip = |[u, v]: [f32; 2]| [u, 1.0 - v];
