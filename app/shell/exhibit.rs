@@ -90,27 +90,106 @@ fn cache_name(file: &Path, options: &ImportOptions, revision: u32) -> anyhow::Re
     Ok(format!("{stem}-{hash:08x}.kstore"))
 }
 
-/// The up axis of an exhibit's model, from `exhibit.toml` beside it (`up = "z"`; one of `x`, `y`,
-/// `z`, `-x`, `-y`, `-z`); +Y when there is no such file or key. An invalid file is an error
-/// naming it and the key.
-pub fn model_up(dir: &Path) -> anyhow::Result<glam::DVec3> {
+/// How an exhibit's model stands, from `exhibit.toml` beside it:
+///
+/// ```toml
+/// up = "z"          # its up axis: x, y, z, -x, -y or -z (default y)
+/// front = "-y"      # the side the kiosk's start view looks at: an axis or [x, y, z]
+/// ```
+///
+/// `front` is made perpendicular to `up` (default: [`kiosk_core::camera::default_front`]). No
+/// file: +Y up, the default front. An invalid file is an error naming it and the key.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModelPose {
+    /// The model's up axis (unit).
+    pub up: glam::DVec3,
+    /// The side the start view looks at (unit, perpendicular to `up`), if the exhibit says.
+    pub front: Option<glam::DVec3>,
+}
+
+impl Default for ModelPose {
+    fn default() -> Self {
+        Self { up: glam::DVec3::Y, front: None }
+    }
+}
+
+impl ModelPose {
+    /// `exhibit.toml`'s text for this pose.
+    pub fn to_toml(&self) -> String {
+        let up = UP_AXES.iter().find(|(_, a)| *a == self.up).map_or("y", |(n, _)| *n);
+        let mut text = format!("# The model's up axis: x, y, z, -x, -y or -z.\nup = \"{up}\"\n");
+        if let Some(f) = self.front {
+            text += "# The side the kiosk's start view looks at (an axis, or x, y, z).\n";
+            match UP_AXES.iter().find(|(_, a)| a.abs_diff_eq(f, 1e-12)) {
+                Some((n, _)) => text += &format!("front = \"{n}\"\n"),
+                None => text += &format!("front = [{}, {}, {}]\n", f.x, f.y, f.z),
+            }
+        }
+        text
+    }
+
+    /// `front` made perpendicular to `up` and unit; `None` when it is (nearly) along `up`.
+    pub fn level(up: glam::DVec3, front: glam::DVec3) -> Option<glam::DVec3> {
+        let f = front - up * front.dot(up);
+        (f.length() > 0.1 * front.length()).then(|| f.normalize())
+    }
+}
+
+/// Reads [`ModelPose`] from an exhibit directory's `exhibit.toml`.
+pub fn model_pose(dir: &Path) -> anyhow::Result<ModelPose> {
     let path = dir.join("exhibit.toml");
     let text = match std::fs::read_to_string(&path) {
         Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(glam::DVec3::Y),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(ModelPose::default()),
         Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
     };
+    #[derive(serde::Deserialize)]
+    #[serde(untagged)]
+    enum Direction {
+        Axis(String),
+        Vector([f64; 3]),
+    }
     #[derive(serde::Deserialize)]
     #[serde(deny_unknown_fields)]
     struct ExhibitFile {
         up: Option<String>,
+        front: Option<Direction>,
     }
     let file: ExhibitFile = toml::from_str(&text).with_context(|| format!("{}", path.display()))?;
-    let Some(name) = file.up.as_deref().map(str::trim) else { return Ok(glam::DVec3::Y) };
-    match UP_AXES.iter().find(|(n, _)| *n == name) {
+    let axis = |key: &str, name: &str| match UP_AXES.iter().find(|(n, _)| *n == name.trim()) {
         Some((_, axis)) => Ok(*axis),
-        None => anyhow::bail!("{}: up = {name:?}: must be x, y, z, -x, -y or -z", path.display()),
-    }
+        None => anyhow::bail!("{}: {key} = {name:?}: must be x, y, z, -x, -y or -z", path.display()),
+    };
+    let up = match file.up.as_deref() {
+        Some(name) => axis("up", name)?,
+        None => glam::DVec3::Y,
+    };
+    let front = match file.front {
+        None => None,
+        Some(d) => {
+            let v = match d {
+                Direction::Axis(name) => axis("front", &name)?,
+                Direction::Vector(v) => glam::DVec3::from_array(v),
+            };
+            anyhow::ensure!(
+                v.is_finite() && v.length() > 0.0,
+                "{}: front = {v}: a direction, not zero or infinite",
+                path.display()
+            );
+            Some(ModelPose::level(up, v).with_context(|| {
+                format!(
+                    "{}: front = {v}: along the up axis; the front is a side of the model",
+                    path.display()
+                )
+            })?)
+        }
+    };
+    Ok(ModelPose { up, front })
+}
+
+/// The up axis of an exhibit's model ([`model_pose`]'s `up`).
+pub fn model_up(dir: &Path) -> anyhow::Result<glam::DVec3> {
+    Ok(model_pose(dir)?.up)
 }
 
 /// The up axes a model may have, with their names in `exhibit.toml`.
@@ -139,6 +218,30 @@ pub fn open_graph(
     let mut graph = graph;
     load_roi_masks(dir, &mut graph);
     Ok(Some((graph, problems)))
+}
+
+/// The narration files `paths` name: a file stands for itself, an exhibit directory for every
+/// narration its graph.xml names (each language, resolved inside the exhibit), in order, once.
+pub fn narration_files(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    for p in paths {
+        if !p.is_dir() {
+            files.push(p.clone());
+            continue;
+        }
+        let (graph, _) = open_graph(p)?.with_context(|| format!("{}: no graph.xml", p.display()))?;
+        let mut names = std::collections::BTreeSet::new();
+        for node in &graph.nodes {
+            for rel in node.narration.0.values() {
+                let f = crate::media::resolve(p, rel).map_err(|e| {
+                    anyhow::anyhow!("{}: node {}: narration {rel}: {e}", p.display(), node.id)
+                })?;
+                names.insert(f);
+            }
+        }
+        files.extend(names);
+    }
+    Ok(files)
 }
 
 /// Aspect ratio (width / height) of the projection the views are authored for: overlays and ROI
@@ -203,6 +306,33 @@ mod tests {
         std::fs::write(dir.path().join("exhibit.toml"), "upp = \"z\"\n").expect("write");
         let e = format!("{:#}", model_up(dir.path()).expect_err("unknown key"));
         assert!(e.contains("exhibit.toml") && e.contains("upp"), "{e}");
+    }
+
+    #[test]
+    fn an_exhibit_states_the_side_its_start_view_looks_at() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let file = dir.path().join("exhibit.toml");
+        assert_eq!(model_pose(dir.path()).expect("no file").front, None);
+        std::fs::write(&file, "front = \"-z\"\n").expect("write");
+        assert_eq!(model_pose(dir.path()).expect("axis").front, Some(glam::DVec3::NEG_Z));
+        // A vector is levelled (made perpendicular to up) and made unit.
+        std::fs::write(&file, "up = \"z\"\nfront = [3.0, 0.0, 4.0]\n").expect("write");
+        let pose = model_pose(dir.path()).expect("vector");
+        assert_eq!((pose.up, pose.front), (glam::DVec3::Z, Some(glam::DVec3::X)));
+        // Written back and read again: the same pose.
+        let turned = ModelPose { up: glam::DVec3::Y, front: Some(glam::DVec3::new(0.6, 0.0, -0.8)) };
+        std::fs::write(&file, turned.to_toml()).expect("write");
+        let back = model_pose(dir.path()).expect("read back");
+        assert!(back.front.expect("front").abs_diff_eq(turned.front.expect("front"), 1e-12), "{back:?}");
+        for (text, says) in [
+            ("front = \"y\"\n", "along the up axis"),
+            ("front = [0.0, 0.0, 0.0]\n", "not zero"),
+            ("front = \"north\"\n", "north"),
+        ] {
+            std::fs::write(&file, text).expect("write");
+            let e = format!("{:#}", model_pose(dir.path()).expect_err(text));
+            assert!(e.contains("exhibit.toml") && e.contains(says), "{text}: {e}");
+        }
     }
 
     #[test]

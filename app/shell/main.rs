@@ -210,6 +210,18 @@ enum Command {
         #[arg(long)]
         config: Option<PathBuf>,
     },
+    /// Play narration files through the default audio device, one after the other, and wait
+    /// for each to end: a technician's check that the kiosk will be heard. Fails if there is no
+    /// device or a file does not decode.
+    SoundCheck {
+        /// Narration files (WAV, Ogg Vorbis, MP3, FLAC), or exhibit directories (every narration
+        /// their graph.xml names).
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+        /// Volume, 0–1.
+        #[arg(long, default_value_t = 1.0)]
+        volume: f64,
+    },
     /// Replay a touch session without window or GPU and write its trace (JSON Lines).
     Replay {
         /// Exhibit directory (a store, or a scan imported on the fly).
@@ -281,7 +293,8 @@ fn main() -> anyhow::Result<()> {
             let store = kiosk::exhibit::open_model(&exhibit)?;
             let size = kiosk::snapshot::parse_size(&size)?;
             // The view and its light: a node's stored light, else the light a visit starts with.
-            let start = kiosk_core::replay::initial_camera(&store, 0.8, kiosk::exhibit::model_up(&exhibit)?);
+            let pose = kiosk::exhibit::model_pose(&exhibit)?;
+            let start = kiosk_core::replay::start_camera(&store, 0.8, pose.up, pose.front);
             let start_light = kiosk::windows::start_light(&start);
             let (camera, light) = match (view, node) {
                 (Some(v), _) => (kiosk::snapshot::parse_view(&v)?, start_light),
@@ -328,8 +341,24 @@ fn main() -> anyhow::Result<()> {
             };
             print!("{}", kiosk::report::run(&opts)?);
         }
+        Command::SoundCheck { files, volume } => {
+            anyhow::ensure!((0.0..=1.0).contains(&volume), "--volume {volume}: between 0 and 1");
+            let mut narrator = kiosk::windows::audio::Narrator::new(volume, false);
+            anyhow::ensure!(
+                narrator.audible(),
+                "no audio device: the kiosk would be silent (captions still show); check the sound card and ALSA's default device"
+            );
+            let mut played = 0;
+            for path in kiosk::exhibit::narration_files(&files)? {
+                let secs = narrator.play_to_end(&path).map_err(anyhow::Error::msg)?;
+                println!("played {} ({secs:.1} s)", path.display());
+                played += 1;
+            }
+            println!("{played} narration(s) played through the default audio device");
+        }
         Command::Replay { exhibit, session, trace, controller, seed } => {
             let store = kiosk::exhibit::open_model(&exhibit)?;
+            let pose = kiosk::exhibit::model_pose(&exhibit)?;
             let text = std::fs::read_to_string(&session)
                 .with_context(|| format!("cannot read session {}", session.display()))?;
             let parsed = kiosk_core::session::Session::parse(&text)
@@ -337,7 +366,8 @@ fn main() -> anyhow::Result<()> {
             let settings = kiosk_core::replay::ExploreSettings {
                 controller: controller.parse().map_err(anyhow::Error::msg)?,
                 seed: seed.or(parsed.header.as_ref().and_then(|h| h.seed)).unwrap_or(0),
-                up: kiosk::exhibit::model_up(&exhibit)?,
+                up: pose.up,
+                front: pose.front,
                 ..Default::default()
             };
             let graph = match kiosk::exhibit::open_graph(&exhibit) {

@@ -37,11 +37,12 @@ pub struct Project {
     /// The text of graph.xml as last read or written: saving writes over it, keeping what the
     /// loader could not read (see [`InfoGraph::to_xml_over`]).
     original: Option<String>,
-    /// The model's up axis (`exhibit.toml`; +Y without one).
-    pub up: DVec3,
+    /// How the model stands: its up axis and the side the kiosk shows first (`exhibit.toml`;
+    /// +Y up and the default front without one).
+    pub pose: ModelPose,
 }
 
-pub use kiosk::exhibit::UP_AXES;
+pub use kiosk::exhibit::{ModelPose, UP_AXES};
 
 impl Project {
     /// Opens an exhibit directory (creating an empty graph when it has none).
@@ -53,11 +54,12 @@ impl Project {
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
             Err(e) => return Err(e).with_context(|| format!("cannot read {}", graph_file.display())),
         };
-        let (up, up_problem) = match kiosk::exhibit::model_up(dir) {
-            Ok(up) => (up, None),
-            Err(e) => {
-                (DVec3::Y, Some(Problem { node: None, msg: format!("{e:#}; +Y up used"), dropped: false }))
-            }
+        let (pose, up_problem) = match kiosk::exhibit::model_pose(dir) {
+            Ok(pose) => (pose, None),
+            Err(e) => (
+                ModelPose::default(),
+                Some(Problem { node: None, msg: format!("{e:#}; +Y up used"), dropped: false }),
+            ),
         };
         let (graph, mut problems) = match kiosk::exhibit::open_graph(dir)? {
             Some((g, p)) => (g, p),
@@ -73,7 +75,7 @@ impl Project {
                 undo: Vec::new(),
                 redo: Vec::new(),
                 original,
-                up,
+                pose,
             },
             problems,
         ))
@@ -344,16 +346,31 @@ impl Project {
     }
 
     /// Turns the model upright: sets its up axis (one of [`UP_AXES`]) and writes it to
-    /// `exhibit.toml` at once (atomically), so the kiosk shows the model the same way.
+    /// `exhibit.toml` at once (atomically), so the kiosk shows the model the same way. A front
+    /// that lies along the new up axis is dropped (the default front is used).
     pub fn set_up(&mut self, up: DVec3) -> anyhow::Result<()> {
-        let name = UP_AXES.iter().find(|(_, a)| *a == up).map(|(n, _)| *n).context("not an axis")?;
+        UP_AXES.iter().find(|(_, a)| *a == up).context("not an axis")?;
+        let front = self.pose.front.and_then(|f| ModelPose::level(up, f));
+        self.write_pose(ModelPose { up, front })
+    }
+
+    /// Turns the model about its up axis: the kiosk's start view will look at the side `front`
+    /// points to (levelled to the up axis), e.g. the direction from the model to the live view's
+    /// eye. Written to `exhibit.toml` at once.
+    pub fn set_front(&mut self, front: DVec3) -> anyhow::Result<()> {
+        let f =
+            ModelPose::level(self.pose.up, front).context("that direction is along the model's up axis")?;
+        self.write_pose(ModelPose { front: Some(f), ..self.pose })
+    }
+
+    /// Writes `exhibit.toml` atomically and takes the pose.
+    fn write_pose(&mut self, pose: ModelPose) -> anyhow::Result<()> {
         let path = self.dir.join("exhibit.toml");
         let tmp = self.dir.join(".exhibit.toml.saving");
-        let text = format!("# The model's up axis: x, y, z, -x, -y or -z.\nup = \"{name}\"\n");
-        std::fs::write(&tmp, text)
+        std::fs::write(&tmp, pose.to_toml())
             .and_then(|()| std::fs::rename(&tmp, &path))
             .with_context(|| format!("cannot write {}", path.display()))?;
-        self.up = up;
+        self.pose = pose;
         Ok(())
     }
 

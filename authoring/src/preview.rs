@@ -3,6 +3,7 @@
 //! replayed against the graph being edited.
 
 use kiosk::MappedStore;
+use kiosk::exhibit::ModelPose;
 use kiosk_core::explore::Explorer;
 use kiosk_core::graph::InfoGraph;
 use kiosk_core::kiosk::{KioskSettings, Mode, ModelRef, run_session};
@@ -11,9 +12,22 @@ use kiosk_core::session::Session;
 
 /// The nodes the engine displays, in order, when nobody touches for `secs` seconds (each
 /// proposal accepted), with this seed.
-pub fn simulate_walk(store: &MappedStore, graph: &InfoGraph, seed: u64, secs: f64) -> Vec<String> {
+pub fn simulate_walk(
+    store: &MappedStore,
+    graph: &InfoGraph,
+    pose: ModelPose,
+    seed: u64,
+    secs: f64,
+) -> Vec<String> {
     // 20 Hz is plenty for a walk without a visitor and keeps the preview instant.
-    let settings = ExploreSettings { seed, fps: 20.0, size_px: (1280, 720), ..ExploreSettings::default() };
+    let settings = ExploreSettings {
+        seed,
+        fps: 20.0,
+        size_px: (1280, 720),
+        up: pose.up,
+        front: pose.front,
+        ..ExploreSettings::default()
+    };
     let mut explorer = Explorer::new(store, Some(graph), &settings, 0.0);
     explorer.autopilot = true;
     let frames = (secs * settings.fps).ceil() as u64;
@@ -34,10 +48,16 @@ pub struct SessionPreview {
     pub exploring_secs: f64,
 }
 
-/// Replays a kiosk session (recorded with `kiosk --record`) with this model alone in the gallery.
-pub fn replay_session(store: &MappedStore, graph: &InfoGraph, session: &Session) -> SessionPreview {
+/// Replays a kiosk session (recorded with `kiosk --record`) with this model alone in the gallery,
+/// standing as its exhibit says.
+pub fn replay_session(
+    store: &MappedStore,
+    graph: &InfoGraph,
+    pose: ModelPose,
+    session: &Session,
+) -> SessionPreview {
     let settings = KioskSettings::default();
-    let models = [ModelRef { store, graph: Some(graph), up: settings.explore.up }];
+    let models = [ModelRef { store, graph: Some(graph), up: pose.up, front: pose.front }];
     let frames = run_session(&models, session, &settings, 1.0);
     let dt = 1.0 / settings.explore.fps;
     let mut displayed: Vec<String> = Vec::new();

@@ -191,17 +191,43 @@ fn saving_without_edits_keeps_the_file_byte_for_byte_even_what_could_not_be_read
 fn a_curator_turns_the_model_upright_and_the_kiosk_reads_it() {
     let dir = exhibit();
     let (mut p, _) = Project::open(dir.path()).expect("open");
-    assert_eq!(p.up, DVec3::Y, "no exhibit.toml: +Y");
+    assert_eq!(p.pose.up, DVec3::Y, "no exhibit.toml: +Y");
     p.set_up(DVec3::Z).expect("set up");
     assert_eq!(kiosk::exhibit::model_up(dir.path()).expect("the kiosk reads it"), DVec3::Z);
     let (again, problems) = Project::open(dir.path()).expect("reopen");
-    assert_eq!(again.up, DVec3::Z);
+    assert_eq!(again.pose.up, DVec3::Z);
     assert!(problems.is_empty(), "{problems:?}");
     assert!(p.set_up(DVec3::new(1.0, 1.0, 0.0)).is_err(), "only the six axes");
     std::fs::write(dir.path().join("exhibit.toml"), "up = \"diagonal\"\n").expect("write");
     let (broken, problems) = Project::open(dir.path()).expect("opens all the same");
-    assert_eq!(broken.up, DVec3::Y);
+    assert_eq!(broken.pose.up, DVec3::Y);
     assert!(problems.iter().any(|p| p.msg.contains("diagonal")), "{problems:?}");
+}
+
+#[test]
+fn a_curator_turns_the_model_to_its_front_and_the_kiosk_starts_there() {
+    let dir = exhibit();
+    let (mut p, _) = Project::open(dir.path()).expect("open");
+    assert_eq!(p.pose.front, None, "no exhibit.toml: the default front");
+    // Looking from below-left-behind: the front is that side, levelled to the up axis.
+    p.set_front(DVec3::new(-1.0, -0.5, -1.0)).expect("set front");
+    let front = DVec3::new(-1.0, 0.0, -1.0).normalize();
+    let pose = kiosk::exhibit::model_pose(dir.path()).expect("the kiosk reads it");
+    assert!(pose.front.expect("a front").abs_diff_eq(front, 1e-9), "{pose:?}");
+    let start = kiosk_core::replay::start_camera(&p.store, 0.8, pose.up, pose.front);
+    assert!(
+        (start.eye - start.target).normalize().abs_diff_eq(front, 1e-9),
+        "the start view looks at the front"
+    );
+    assert!(p.set_front(DVec3::Y).is_err(), "a front along the up axis is refused");
+    // Turned upright about Z, the front stays (it is level); turned about X, it is dropped when
+    // it would lie along the new up axis.
+    p.set_front(DVec3::X).expect("front +X");
+    p.set_up(DVec3::Z).expect("up Z");
+    assert_eq!(kiosk::exhibit::model_pose(dir.path()).expect("read").front, Some(DVec3::X));
+    p.set_up(DVec3::X).expect("up X");
+    let pose = kiosk::exhibit::model_pose(dir.path()).expect("read");
+    assert_eq!((pose.up, pose.front), (DVec3::X, None));
 }
 
 #[test]

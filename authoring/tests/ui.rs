@@ -278,6 +278,25 @@ fn the_model_is_turned_upright_from_the_toolbar() {
 }
 
 #[test]
+fn the_side_in_view_becomes_the_front_from_the_toolbar() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    copy_dir(&repo().join("content/demosthenes"), dir.path());
+    let mut h = harness(dir.path());
+    // Orbit to the model's side, then make that side its front.
+    drag_view(&mut h, 400.0, 0.0);
+    let cam = h.state().camera();
+    let side = (cam.eye - cam.target).with_y(0.0).normalize();
+    assert!(side.dot(glam::DVec3::Z) < 0.95, "the drag turned the view: {side}");
+    click(&mut h, "Front from view");
+    let saved = std::fs::read_to_string(dir.path().join("exhibit.toml")).expect("exhibit.toml written");
+    assert!(saved.contains("front = "), "{saved}");
+    let pose = kiosk::exhibit::model_pose(dir.path()).expect("the kiosk reads it");
+    assert!(pose.front.expect("front").dot(side) > 0.999, "{pose:?} vs {side}");
+    let start = h.state().camera();
+    assert!((start.eye - start.target).normalize().dot(side) > 0.999, "the live view starts at the front");
+}
+
+#[test]
 fn a_views_light_is_steered_in_the_live_view_and_saved_with_it() {
     let dir = tempfile::tempdir().expect("temp dir");
     copy_dir(&repo().join("content/demosthenes"), dir.path());

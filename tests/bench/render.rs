@@ -11,8 +11,11 @@
 //! 4. Image quality of each splat mode against the mesh render (`quality`): PSNR, SSIM, visible
 //!    edges and ms per frame at 1920×1080, far, middle and close up (table and
 //!    `target/bench/render-quality.svg`).
+//! 5. Samples per texel of a textured scan against build time, store size and colour error
+//!    against the textured mesh (`texel`; `-- --texel-only`; `target/bench/render-texel.svg`).
 
 mod quality;
+mod texel;
 
 use glam::DVec3;
 use kiosk::MappedStore;
@@ -50,6 +53,9 @@ fn main() -> anyhow::Result<()> {
     let (gpu, mut renderer) = kiosk::snapshot::offscreen()?;
     println!("adapter: {} ({:?}, {:?})", gpu.adapter.name, gpu.adapter.backend, gpu.adapter.device_type);
     let quality_size = (1920, 1080);
+    if std::env::args().any(|a| a == "--texel-only") {
+        return texel::run(&gpu, &mut renderer, root, &out_dir, quality_size);
+    }
     if std::env::args().any(|a| a == "--quality-only") {
         quality::run(&gpu, &mut renderer, root, &out_dir, quality_size, if quick { 2 } else { 5 })?;
         return Ok(());
@@ -199,5 +205,5 @@ fn main() -> anyhow::Result<()> {
     }
     println!("\nplot: {}", svg.display());
     quality::run(&gpu, &mut renderer, root, &out_dir, quality_size, if quick { 2 } else { 5 })?;
-    Ok(())
+    texel::run(&gpu, &mut renderer, root, &out_dir, quality_size)
 }

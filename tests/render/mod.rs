@@ -412,3 +412,65 @@ fn an_image_larger_than_the_device_allows_is_a_clear_error() {
     );
     assert!(!out.exists());
 }
+
+#[test]
+fn the_textured_mesh_reference_and_the_splats_show_the_same_texture() {
+    // Khronos' BoxTextured: a cube with the glTF logo texture. The mesh reference samples the
+    // texture per pixel; the store's splats carry the colours the importer sampled from it.
+    let glb = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/formats/box-textured/BoxTextured.glb");
+    let mesh = kiosk_testkit::mesh::read_glb(&glb).expect("the box's mesh and texture");
+    assert!(mesh.texture.is_some() && mesh.uvs.len() == mesh.positions.len());
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("box.kstore");
+    kiosk::import::import(
+        &glb,
+        &out,
+        &kiosk::import::ImportOptions { progress: false, ..Default::default() },
+    )
+    .expect("import");
+    let store = kiosk::open_store(&out).expect("open");
+    let cam = {
+        let c = store.to_model(store.bbox().center());
+        let d = f64::from(store.bbox().diagonal());
+        let mut cam = Camera {
+            eye: c + DVec3::new(0.9, 0.7, 1.2).normalize() * 1.3 * d,
+            target: c,
+            up: DVec3::Y,
+            fov_y: 0.8,
+        };
+        cam.up = kiosk_core::camera::orthonormal_up(cam.forward(), DVec3::Y, DVec3::Z);
+        cam
+    };
+    let size = (320, 240);
+    let settings = RenderSettings::default();
+    let reference = {
+        let g = gpu().lock().unwrap_or_else(|e| e.into_inner());
+        kiosk_render::reference::MeshRenderer::new(&g.0, kiosk_render::OFFSCREEN_FORMAT)
+            .render_image(&g.0, &mesh, &cam, size, &settings)
+            .expect("mesh render")
+    };
+    let splats = render(&store, &cam, size, &settings);
+    let bg = kiosk_testkit::metrics::srgb8(settings.background);
+    let cover = |i: &image::RgbaImage| kiosk_testkit::metrics::coverage(i, bg);
+    let mask = kiosk_testkit::metrics::interior(&cover(&reference), &cover(&splats), size, 2);
+    assert!(mask.iter().filter(|m| **m).count() > 10_000, "the box fills the view");
+    // The texture is there: the mesh image has many distinct colours (the logo on white, not a
+    // flat shade), and the splats show the same ones.
+    let colours: std::collections::HashSet<[u8; 3]> = reference
+        .pixels()
+        .zip(&mask)
+        .filter(|(_, m)| **m)
+        .map(|(p, _)| [p[0] & 0xf0, p[1] & 0xf0, p[2] & 0xf0])
+        .collect();
+    assert!(colours.len() > 20, "the reference shows a texture ({} colours)", colours.len());
+    let de = kiosk_testkit::metrics::delta_e(&splats, &reference, &mask);
+    let plain = kiosk_render::reference::Mesh { texture: None, uvs: Vec::new(), ..mesh.clone() };
+    let grey = {
+        let g = gpu().lock().unwrap_or_else(|e| e.into_inner());
+        kiosk_render::reference::MeshRenderer::new(&g.0, kiosk_render::OFFSCREEN_FORMAT)
+            .render_image(&g.0, &plain, &cam, size, &settings)
+            .expect("mesh render")
+    };
+    let de_grey = kiosk_testkit::metrics::delta_e(&grey, &reference, &mask);
+    assert!(de < 6.0 && de < de_grey / 3.0, "ΔE splats {de:.2} vs an untextured box {de_grey:.2}");
+}

@@ -33,7 +33,7 @@ impl Demo {
         let refs: Vec<ModelRef<'_, memmap2::Mmap>> = self
             .models
             .iter()
-            .map(|(s, g)| ModelRef { store: s, graph: Some(g), up: glam::DVec3::Y })
+            .map(|(s, g)| ModelRef { store: s, graph: Some(g), up: glam::DVec3::Y, front: None })
             .collect();
         run_session(&refs, &script.session(), settings, extra)
     }
@@ -237,8 +237,11 @@ fn drive(
     settings: &KioskSettings,
     extra: f64,
 ) -> (Vec<KioskFrame>, kiosk_core::kiosk::Kiosk) {
-    let refs: Vec<ModelRef<'_, memmap2::Mmap>> =
-        d.models.iter().map(|(s, g)| ModelRef { store: s, graph: Some(g), up: glam::DVec3::Y }).collect();
+    let refs: Vec<ModelRef<'_, memmap2::Mmap>> = d
+        .models
+        .iter()
+        .map(|(s, g)| ModelRef { store: s, graph: Some(g), up: glam::DVec3::Y, front: None })
+        .collect();
     let session = script.session();
     let mut kiosk = kiosk_core::kiosk::Kiosk::new(settings.clone(), refs.len(), 0.0);
     let dt = 1.0 / settings.explore.fps;
@@ -327,7 +330,7 @@ fn a_z_up_model_starts_upright_and_stays_upright() {
     let (store, graph) = &d.models[0];
     let script = Script::new().wait(0.2).tap(1, 0.5, 0.86).wait(0.5).joystick(2, (0.2, 0.0), 1.5).wait(0.5);
     for up in [glam::DVec3::Y, glam::DVec3::Z] {
-        let refs = [ModelRef { store, graph: Some(graph), up }];
+        let refs = [ModelRef { store, graph: Some(graph), up, front: None }];
         let frames = run_session(&refs, &script.session(), &fast(), 1.0);
         let explored: Vec<_> = frames.iter().filter_map(|f| f.explore.as_ref()).collect();
         assert!(!explored.is_empty(), "the visitor explores");
@@ -337,6 +340,28 @@ fn a_z_up_model_starts_upright_and_stays_upright() {
         }
         let first = glam::DVec3::from_array(explored[0].up);
         assert!(first.dot(up) > 0.99, "up {up}: the exploration starts upright ({first})");
+    }
+}
+
+#[test]
+fn a_model_turned_to_its_front_is_first_seen_from_it() {
+    let d = demo();
+    let (store, graph) = &d.models[0];
+    let script = Script::new().wait(0.2).tap(1, 0.5, 0.86).wait(0.3);
+    let first_view = |up: glam::DVec3, front: Option<glam::DVec3>| {
+        let refs = [ModelRef { store, graph: Some(graph), up, front }];
+        let frames = run_session(&refs, &script.session(), &fast(), 1.0);
+        let e = frames.iter().find_map(|f| f.explore.as_ref()).expect("the visitor explores").clone();
+        (glam::DVec3::from_array(e.eye) - glam::DVec3::from_array(e.target)).normalize()
+    };
+    assert!(first_view(glam::DVec3::Y, None).dot(glam::DVec3::Z) > 0.99, "default: from +Z");
+    for (up, front) in [
+        (glam::DVec3::Y, glam::DVec3::NEG_Z),
+        (glam::DVec3::Y, glam::DVec3::X),
+        (glam::DVec3::Z, glam::DVec3::X),
+    ] {
+        let from = first_view(up, Some(front));
+        assert!(from.dot(front) > 0.99, "up {up}, front {front}: the visit starts looking at it from {from}");
     }
 }
 
@@ -449,8 +474,11 @@ fn a_session_with_light_drags_replays_byte_for_byte_and_traces_the_light() {
         KioskSettings { attract_after_secs: 5.0, reset_after_secs: 400.0, ..KioskSettings::default() };
     // Through the session file format, as `--record` writes it and `--session` reads it.
     let session = kiosk_core::session::Session::parse(&light_script().session().to_jsonl()).expect("session");
-    let refs: Vec<ModelRef<'_, memmap2::Mmap>> =
-        d.models.iter().map(|(s, g)| ModelRef { store: s, graph: Some(g), up: glam::DVec3::Y }).collect();
+    let refs: Vec<ModelRef<'_, memmap2::Mmap>> = d
+        .models
+        .iter()
+        .map(|(s, g)| ModelRef { store: s, graph: Some(g), up: glam::DVec3::Y, front: None })
+        .collect();
     let trace = || -> String {
         run_session(&refs, &session, &settings, 3.0)
             .iter()
@@ -478,8 +506,11 @@ fn a_recorded_visit_without_light_still_replays_with_the_start_light() {
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut settings = KioskSettings::default();
     settings.explore.seed = session.header.as_ref().and_then(|h| h.seed).unwrap_or(0);
-    let refs: Vec<ModelRef<'_, memmap2::Mmap>> =
-        d.models.iter().map(|(s, g)| ModelRef { store: s, graph: Some(g), up: glam::DVec3::Y }).collect();
+    let refs: Vec<ModelRef<'_, memmap2::Mmap>> = d
+        .models
+        .iter()
+        .map(|(s, g)| ModelRef { store: s, graph: Some(g), up: glam::DVec3::Y, front: None })
+        .collect();
     let frames = run_session(&refs, &session, &settings, 1.0);
     let a = serde_json::to_string(&frames).expect("json");
     assert_eq!(a, serde_json::to_string(&run_session(&refs, &session, &settings, 1.0)).expect("json"));

@@ -24,7 +24,7 @@
 //! the trackballs keep pan as a pan and move the eye against the input.
 
 use crate::camera::{Camera, Controller, GoTo, Intent, SceneRef};
-use crate::camera::{ControllerKind, initial_camera, make_controller};
+use crate::camera::{ControllerKind, make_controller, start_camera};
 use crate::gesture::GestureSettings;
 use crate::gesture::{Gestures, MenuEvent, TouchEvent};
 use crate::graph::InfoGraph;
@@ -66,8 +66,11 @@ pub struct ExploreSettings {
     pub cut: CutParams,
     /// Minimum distance as a fraction of the model diagonal.
     pub min_distance_fraction: f64,
-    /// Global up vector.
+    /// Global up vector (the model's up axis).
     pub up: DVec3,
+    /// The side of the model the start view looks at (perpendicular to `up`); `None`: the
+    /// default ([`crate::camera::default_front`]).
+    pub front: Option<DVec3>,
     /// Recommendation engine settings (used when a graph is given).
     pub recommend: RecSettings,
     /// Radial menu settings.
@@ -91,6 +94,7 @@ impl Default for ExploreSettings {
             cut: CutParams::default(),
             min_distance_fraction: 0.01,
             up: DVec3::Y,
+            front: None,
             recommend: RecSettings::default(),
             radial: RadialSettings::default(),
             similarity_samples: 64,
@@ -182,7 +186,7 @@ impl Explorer {
         let diag = f64::from(store.bbox().diagonal());
         let min_distance = settings.min_distance_fraction * diag;
         let aspect = f64::from(settings.size_px.0) / f64::from(settings.size_px.1.max(1));
-        let cam0 = initial_camera(store, settings.fov_y, settings.up);
+        let cam0 = start_camera(store, settings.fov_y, settings.up, settings.front);
         let center = store.to_model(store.bbox().center());
         // At least the framing distance (NaN: that); infinite: no bound.
         let max_distance = settings.max_distance_factor.max(1.0) * (cam0.eye - center).length();

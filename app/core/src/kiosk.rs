@@ -141,6 +141,8 @@ pub struct ModelRef<'a, B: AsRef<[u8]>> {
     /// The model's up axis (unit; scanners and photogrammetry often give Z up): the explorer's
     /// start framing and IsoCam's up follow it.
     pub up: glam::DVec3,
+    /// The side the start view looks at (exhibit.toml's `front`); `None`: the default.
+    pub front: Option<glam::DVec3>,
 }
 
 /// What the shell must do besides drawing.
@@ -608,6 +610,7 @@ impl Kiosk {
                 let mut s = self.settings.explore;
                 s.seed = s.seed.wrapping_add(self.visits);
                 s.up = m.up;
+                s.front = m.front;
                 self.visits += 1;
                 let mut x = Explorer::new(m.store, m.graph, &s, t);
                 if let Some(gamma) = m

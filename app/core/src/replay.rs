@@ -2,7 +2,7 @@
 //! trace ([`crate::trace`]) — the test harness of the whole interaction path. Same store, session,
 //! settings and seed → byte-identical trace.
 
-pub use crate::camera::{ControllerKind, initial_camera, make_controller};
+pub use crate::camera::{ControllerKind, initial_camera, make_controller, start_camera};
 pub use crate::explore::ExploreSettings;
 use crate::explore::Explorer;
 use crate::graph::InfoGraph;

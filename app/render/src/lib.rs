@@ -389,11 +389,12 @@ pub(crate) fn surface_shader(device: &wgpu::Device) -> wgpu::ShaderModule {
     })
 }
 
-/// The frame uniforms (binding 0, vertex and fragment stages): a pipeline layout with them, their
-/// buffer and bind group.
+/// The frame uniforms (binding 0, vertex and fragment stages): a pipeline layout with them (group
+/// 0) and the `more` groups after them, their buffer and bind group.
 pub(crate) fn frame_binding(
     device: &wgpu::Device,
     label: &str,
+    more: &[&wgpu::BindGroupLayout],
 ) -> (wgpu::PipelineLayout, wgpu::Buffer, wgpu::BindGroup) {
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("frame"),
@@ -417,7 +418,9 @@ pub(crate) fn frame_binding(
     });
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some(label),
-        bind_group_layouts: &[Some(&layout)],
+        bind_group_layouts: &std::iter::once(Some(&layout))
+            .chain(more.iter().map(|l| Some(*l)))
+            .collect::<Vec<_>>(),
         immediate_size: 0,
     });
     (pipeline_layout, uniforms, group)
@@ -487,7 +490,7 @@ impl Renderer {
             label: Some("edl.wgsl"),
             source: wgpu::ShaderSource::Wgsl(EDL_WGSL.into()),
         });
-        let (pipeline_layout, uniforms, group) = frame_binding(device, "splats");
+        let (pipeline_layout, uniforms, group) = frame_binding(device, "splats", &[]);
         let pipeline = splat_pipeline(
             device,
             &pipeline_layout,

@@ -98,6 +98,31 @@ impl Narrator {
         }
     }
 
+    /// Plays a file through the device and waits until it has been played to its end (the
+    /// `sound-check` command); returns its length in seconds. Without a device this is an error.
+    pub fn play_to_end(&mut self, path: &Path) -> Result<f64, String> {
+        if !self.audible() {
+            return Err(format!("narration {}: no audio device", path.display()));
+        }
+        let seconds = decode(path)?.duration().as_secs_f64();
+        self.play(path)?;
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs_f64(seconds + 10.0);
+        while self.playing.as_ref().is_some_and(|h| h.state() != kira::sound::PlaybackState::Stopped) {
+            if std::time::Instant::now() > deadline {
+                self.stop();
+                return Err(format!(
+                    "narration {}: still playing {:.0} s after its end; the audio device does not take sound",
+                    path.display(),
+                    10.0
+                ));
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        self.playing = None;
+        self.current = None;
+        Ok(seconds)
+    }
+
     /// Stops the narration with a short fade.
     pub fn stop(&mut self) {
         if let Some(mut h) = self.playing.take() {

@@ -3,7 +3,8 @@
 //!   `--session`, a recorded session played at its own timing (over and over for a soak run,
 //!   each new visitor 2 s after the last one's final event).
 //! - [`Probes`]: what the loop reports — the trace (`--trace`, one JSON line per step), the
-//!   screenshots due (`--screenshot-at`) and a soak run's memory reports (`--run-for`).
+//!   screenshots due (`--screenshot-at`) and a soak run's reports (`--run-for`): resident memory,
+//!   open file descriptors and the size of the state directory (statistics and visit log).
 
 use kiosk_core::gesture::TouchEvent;
 use kiosk_core::session::Session;
@@ -74,8 +75,9 @@ pub(super) struct Probes {
     trace: Option<std::io::BufWriter<std::fs::File>>,
     /// Kiosk times of the screenshots still to take, in order.
     screenshots: Vec<f64>,
-    /// A soak run: kiosk time after which memory is the reference, and that reference.
-    soak: Option<(f64, Option<u64>)>,
+    /// A soak run: kiosk time after which memory is the reference, that reference, and the state
+    /// directory whose size is reported.
+    soak: Option<(f64, Option<u64>, std::path::PathBuf)>,
 }
 
 impl Probes {
@@ -83,13 +85,15 @@ impl Probes {
         trace: Option<std::io::BufWriter<std::fs::File>>,
         mut screenshots: Vec<f64>,
         soak_warmup: Option<f64>,
+        state_dir: &std::path::Path,
     ) -> Self {
         screenshots.sort_by(f64::total_cmp);
-        Self { trace, screenshots, soak: soak_warmup.map(|w| (w, None)) }
+        Self { trace, screenshots, soak: soak_warmup.map(|w| (w, None, state_dir.to_path_buf())) }
     }
 
     /// After the step at `t` (`steps` made, `dt` apart): its trace line, and in a soak run the
-    /// memory every 300 s of kiosk time and once after the warm-up.
+    /// memory, open files and state size every 300 s of kiosk time, and memory once after the
+    /// warm-up.
     pub(super) fn stepped(
         &mut self,
         frame: &impl serde::Serialize,
@@ -100,9 +104,14 @@ impl Probes {
         if let Some(w) = self.trace.as_mut() {
             writeln!(w, "{}", serde_json::to_string(frame).unwrap_or_default())?;
         }
-        if let Some((warmup, warm)) = &mut self.soak {
+        if let Some((warmup, warm, state)) = &mut self.soak {
             if steps.is_multiple_of((300.0 / dt).round() as u64) {
-                println!("soak: t = {t:.0} s, RSS {} kB", rss_kb().unwrap_or(0));
+                println!(
+                    "soak: t = {t:.0} s, RSS {} kB, {} open files, state {} B",
+                    rss_kb().unwrap_or(0),
+                    open_files().unwrap_or(0),
+                    dir_bytes(state)
+                );
             }
             if warm.is_none() && t >= *warmup {
                 *warm = rss_kb();
@@ -129,7 +138,8 @@ impl Probes {
         if !self.screenshots.is_empty() {
             tracing::warn!("screenshots after the session's end were not taken: {:?}", self.screenshots);
         }
-        if let (Some((_, Some(warm))), Some(end)) = (self.soak, rss_kb()) {
+        if let (Some((_, Some(warm), _)), Some(end)) = (&self.soak, rss_kb()) {
+            let warm = *warm;
             let change = 100.0 * (end as f64 - warm as f64) / warm.max(1) as f64;
             println!(
                 "soak: {sim_t:.0} s of kiosk time in {wall_secs:.0} s, {steps} steps, {rendered} frames rendered, RSS after warm-up {warm} kB, at the end {end} kB ({change:+.1} %)"
@@ -140,6 +150,17 @@ impl Probes {
             None => Ok(()),
         }
     }
+}
+
+/// The number of file descriptors the process holds open (Linux).
+fn open_files() -> Option<usize> {
+    Some(std::fs::read_dir("/proc/self/fd").ok()?.count())
+}
+
+/// The total size of the files directly in `dir` (the statistics and the visit log).
+fn dir_bytes(dir: &std::path::Path) -> u64 {
+    let Ok(entries) = std::fs::read_dir(dir) else { return 0 };
+    entries.filter_map(|e| e.ok()?.metadata().ok()).filter(|m| m.is_file()).map(|m| m.len()).sum()
 }
 
 /// The process's resident memory (Linux), in kB.

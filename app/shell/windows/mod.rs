@@ -26,7 +26,7 @@ use kiosk_core::graph::InfoGraph;
 use kiosk_core::kiosk::{Kiosk, KioskEffect, KioskSettings, Mode, ModelRef};
 use kiosk_core::light::Light;
 use kiosk_core::recommend::RecState;
-use kiosk_core::replay::{ExploreSettings, initial_camera};
+use kiosk_core::replay::{ExploreSettings, start_camera};
 use kiosk_core::session::Session;
 use kiosk_core::{Cut, CutParams};
 use kiosk_render::{Blit, Gpu, RenderSettings, Renderer, wgpu};
@@ -95,6 +95,8 @@ pub struct Exhibit {
     pub graph: Option<InfoGraph>,
     /// Its model's up axis (`exhibit.toml`).
     pub up: glam::DVec3,
+    /// The side its start view looks at (`exhibit.toml`), if it says.
+    pub front: Option<glam::DVec3>,
 }
 
 impl Exhibit {
@@ -138,15 +140,15 @@ pub fn load_exhibits(config: &Config) -> anyhow::Result<Vec<Exhibit>> {
                 None
             }
         };
-        let up = match crate::exhibit::model_up(&dir) {
-            Ok(up) => up,
+        let pose = match crate::exhibit::model_pose(&dir) {
+            Ok(pose) => pose,
             Err(e) => {
                 tracing::error!("{e:#}; the model is shown with +Y up");
-                glam::DVec3::Y
+                crate::exhibit::ModelPose::default()
             }
         };
         tracing::info!("exhibit {}: {} samples", dir.display(), store.header().leaf_point_count);
-        out.push(Exhibit { dir, store, graph, up });
+        out.push(Exhibit { dir, store, graph, up: pose.up, front: pose.front });
     }
     anyhow::ensure!(!out.is_empty(), "no exhibit could be loaded from {}", config.content.display());
     Ok(out)
@@ -353,7 +355,7 @@ impl App {
         }
         let input = drive::Input::new(self.opts.session.clone(), self.opts.run_for.is_some());
         let soak = self.opts.run_for.map(|_| self.opts.warmup);
-        let probes = drive::Probes::new(trace, self.opts.screenshot_at.clone(), soak);
+        let probes = drive::Probes::new(trace, self.opts.screenshot_at.clone(), soak, &state_dir);
         gpu.check()?;
         Ok(Running {
             gpu,
@@ -516,7 +518,7 @@ impl Running {
         let end = self.input.end(opts.run_for);
         let models: Vec<ModelRef<'_, memmap2::Mmap>> = exhibits
             .iter()
-            .map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref(), up: e.up })
+            .map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref(), up: e.up, front: e.front })
             .collect();
         let mut stepped = false;
         while self.sim_t + dt <= now {
@@ -570,7 +572,7 @@ impl Running {
         if exit {
             let models: Vec<ModelRef<'_, memmap2::Mmap>> = exhibits
                 .iter()
-                .map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref(), up: e.up })
+                .map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref(), up: e.up, front: e.front })
                 .collect();
             self.kiosk.end_visit(&models, self.sim_t, kiosk_core::stats::VisitEnd::Exit);
         }
@@ -676,7 +678,7 @@ impl Running {
             None => {
                 let fov = self.kiosk.settings.explore.fov_y;
                 // The gallery's turntable, about the model's own up axis.
-                let c0 = initial_camera(store, fov, ex.up);
+                let c0 = start_camera(store, fov, ex.up, ex.front);
                 let turn = glam::DQuat::from_axis_angle(ex.up, 0.15 * t);
                 camera = Camera { eye: c0.target + turn * (c0.eye - c0.target), up: turn * c0.up, ..c0 };
                 settings = lit(settings, start_light(&c0));
@@ -823,7 +825,8 @@ impl Running {
                 &CutParams { tolerance_px: 2.0, max_changes: usize::MAX, ..CutParams::default() },
             );
             let nodes = cut.visible_nodes(&ex.store, &v);
-            let start = start_light(&initial_camera(&ex.store, self.kiosk.settings.explore.fov_y, ex.up));
+            let start =
+                start_light(&start_camera(&ex.store, self.kiosk.settings.explore.fov_y, ex.up, ex.front));
             let settings = lit(self.render_settings, node_light(n, start));
             self.renderer.render_image(&self.gpu, &ex.store, &nodes, &n.view, size, &settings).ok()
         });

@@ -12,7 +12,7 @@ use crate::{Project, VIEW_ASPECT, preview};
 use egui::{Color32, ColorImage, Pos2, Rect, Sense, TextureHandle, TextureOptions, vec2};
 use kiosk_core::camera::{Camera, Controller, Intent, SceneRef};
 use kiosk_core::graph::Problem;
-use kiosk_core::replay::{ControllerKind, initial_camera, make_controller};
+use kiosk_core::replay::{ControllerKind, make_controller, start_camera};
 use kiosk_core::{Cut, CutParams};
 use kiosk_render::{Gpu, RenderSettings, Renderer};
 use rand::SeedableRng;
@@ -111,8 +111,8 @@ impl AuthorApp {
     /// Opens a project; `gpu` renders the live view and thumbnails (none: no picture, still editable).
     pub fn new(project: Project, problems: Vec<Problem>, gpu: Option<(Gpu, Renderer)>) -> Self {
         let store = &project.store;
-        let up = project.up;
-        let cam = initial_camera(store, 0.8, up);
+        let up = project.pose.up;
+        let cam = start_camera(store, 0.8, up, project.pose.front);
         let mut cut = Cut::root(store);
         if let Some(v) = cam.view_params(store, LIVE_SIZE) {
             cut.update(store, &v, &CutParams { max_changes: usize::MAX, ..CutParams::default() });
@@ -230,8 +230,27 @@ impl AuthorApp {
         if self.report("model up", r).is_none() {
             return;
         }
+        self.restart_live_view();
+        self.say(format!("model up: {up}; saved in exhibit.toml"));
+    }
+
+    /// Makes the side of the model the live view looks at its front: the kiosk's start view
+    /// and gallery card will show it (saved in `exhibit.toml`); the live view starts again from it.
+    pub fn set_front_from_view(&mut self) {
+        let cam = self.camera();
+        let r = self.project.set_front(cam.eye - cam.target);
+        if self.report("model front", r).is_none() {
+            return;
+        }
+        self.restart_live_view();
+        self.say("the side in view is the model's front; saved in exhibit.toml");
+    }
+
+    /// The live view from the kiosk's start view of the model as it now stands.
+    fn restart_live_view(&mut self) {
         let store = &self.project.store;
-        let cam = initial_camera(store, 0.8, up);
+        let up = self.project.pose.up;
+        let cam = start_camera(store, 0.8, up, self.project.pose.front);
         self.cut = Cut::root(store);
         if let Some(v) = cam.view_params(store, LIVE_SIZE) {
             self.cut.update(store, &v, &CutParams { max_changes: usize::MAX, ..CutParams::default() });
@@ -245,7 +264,6 @@ impl AuthorApp {
             f64::from(LIVE_SIZE.0) / f64::from(LIVE_SIZE.1.max(1)),
         );
         self.live_dirty = true;
-        self.say(format!("model up: {up}; saved in exhibit.toml"));
     }
 
     /// Steers the live view's light by a drag of `(dx, dy)` (view widths and heights, y down),
@@ -459,7 +477,13 @@ impl AuthorApp {
 
     /// Simulates a visitor-less walk with the seed.
     pub fn preview_walk(&mut self) {
-        self.walk = preview::simulate_walk(&self.project.store, &self.project.graph, self.walk_seed, 600.0);
+        self.walk = preview::simulate_walk(
+            &self.project.store,
+            &self.project.graph,
+            self.project.pose,
+            self.walk_seed,
+            600.0,
+        );
         self.say(format!("walk with seed {}: {}", self.walk_seed, self.walk.join(" -> ")));
     }
 
@@ -470,7 +494,7 @@ impl AuthorApp {
             .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))
             .and_then(|t| Ok(kiosk_core::session::Session::parse(&t)?));
         if let Some(s) = self.report("replay", r) {
-            let p = preview::replay_session(&self.project.store, &self.project.graph, &s);
+            let p = preview::replay_session(&self.project.store, &self.project.graph, self.project.pose, &s);
             self.say(format!("replayed {:.0} s: displayed {}", p.duration, p.displayed.join(", ")));
             self.replayed = Some(p);
         }
@@ -590,11 +614,20 @@ impl AuthorApp {
             }
             ui.separator();
             ui.label("Model up");
-            let current = self.project.up;
+            let current = self.project.pose.up;
             for (name, axis) in crate::UP_AXES {
                 if ui.selectable_label(current == axis, name).clicked() && current != axis {
                     self.set_up(axis);
                 }
+            }
+            if ui
+                .button("Front from view")
+                .on_hover_text(
+                    "The side of the model you are looking at becomes its front: the kiosk starts there",
+                )
+                .clicked()
+            {
+                self.set_front_from_view();
             }
             ui.separator();
             ui.label("Language");

@@ -11,7 +11,12 @@ use std::path::Path;
 /// The far, middle and close-up views of a model: the start view, then toward the surface
 /// point at the centre of the image, at 0.35 and 0.06 of the model's diagonal.
 pub fn views(store: &MappedStore, mesh: &Mesh) -> [(&'static str, Camera); 3] {
-    let far = kiosk_core::replay::initial_camera(store, 0.8, DVec3::Y);
+    views_from(store, mesh, None)
+}
+
+/// [`views`] from the model's `front` side (see [`kiosk_core::camera::start_camera`]).
+pub fn views_from(store: &MappedStore, mesh: &Mesh, front: Option<DVec3>) -> [(&'static str, Camera); 3] {
+    let far = kiosk_core::replay::start_camera(store, 0.8, DVec3::Y, front);
     let dir = far.forward();
     let diag = f64::from(store.bbox().diagonal());
     // The first vertex along the central ray (within 1 % of the diagonal from it).
@@ -43,6 +48,69 @@ pub fn read(path: &Path) -> Result<Mesh, String> {
     }
     .map_err(|e| format!("{}: {e}", path.display()))?;
     Mesh::new(&positions, triangles).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Reads a binary glTF (GLB) mesh with its base-colour texture into a textured [`Mesh`]: every
+/// triangle primitive of the default scene with its node transforms, texture coordinates set 0,
+/// the one image its materials share (JPEG or PNG in the file). For the textured reference render;
+/// a file with several images, or base-colour factors other than 1, is an error.
+pub fn read_glb(path: &Path) -> Result<Mesh, String> {
+    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let bytes = std::fs::read(path).map_err(|e| err(&e))?;
+    let glb = gltf::Gltf::from_slice(&bytes).map_err(|e| err(&e))?;
+    let blob = glb.blob.as_deref().ok_or_else(|| err(&"no binary chunk"))?;
+    let doc = &glb.document;
+    let scene = doc.default_scene().or_else(|| doc.scenes().next()).ok_or_else(|| err(&"no scene"))?;
+    let (mut positions, mut uvs, mut triangles) = (Vec::new(), Vec::new(), Vec::new());
+    let mut image = None;
+    let mut stack: Vec<(gltf::Node, glam::DMat4)> =
+        scene.nodes().map(|n| (n, glam::DMat4::IDENTITY)).collect();
+    while let Some((node, parent)) = stack.pop() {
+        let m =
+            parent * glam::DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
+        stack.extend(node.children().map(|c| (c, m)));
+        let Some(mesh) = node.mesh() else { continue };
+        for prim in mesh.primitives() {
+            if prim.mode() != gltf::mesh::Mode::Triangles {
+                continue;
+            }
+            let pbr = prim.material().pbr_metallic_roughness();
+            if pbr.base_color_factor() != [1.0; 4] {
+                return Err(err(&"a base-colour factor other than 1"));
+            }
+            let tex = pbr.base_color_texture().ok_or_else(|| err(&"a primitive without a texture"))?;
+            let source = tex.texture().source().index();
+            if *image.get_or_insert(source) != source {
+                return Err(err(&"several images"));
+            }
+            let reader = prim.reader(|_| Some(blob));
+            let base = positions.len() as u32;
+            let pos = reader.read_positions().ok_or_else(|| err(&"no positions"))?;
+            positions.extend(pos.map(|p| m.transform_point3(glam::DVec3::from_array(p.map(f64::from)))));
+            let tc = reader.read_tex_coords(tex.tex_coord()).ok_or_else(|| err(&"no texture coordinates"))?;
+            uvs.extend(tc.into_f32());
+            if uvs.len() != positions.len() {
+                return Err(err(&"texture coordinates and positions differ in number"));
+            }
+            let idx: Vec<u32> = match reader.read_indices() {
+                Some(i) => i.into_u32().collect(),
+                None => (0..positions.len() as u32 - base).collect(),
+            };
+            // A mirroring transform turns the winding; the reference draws both sides anyway.
+            triangles.extend(idx.chunks_exact(3).map(|t| [base + t[0], base + t[1], base + t[2]]));
+        }
+    }
+    let source = image.ok_or_else(|| err(&"no textured primitive"))?;
+    let img = doc.images().nth(source).ok_or_else(|| err(&"no such image"))?;
+    let gltf::image::Source::View { view, .. } = img.source() else {
+        return Err(err(&"an image outside the file"));
+    };
+    let data = &blob[view.offset()..view.offset() + view.length()];
+    let texture = image::load_from_memory(data).map_err(|e| err(&e))?.to_rgba8();
+    let mut out = Mesh::new(&positions, triangles).map_err(|e| err(&e))?;
+    out.texture = Some(texture);
+    out.uvs = uvs;
+    Ok(out)
 }
 
 fn number(s: Option<&str>, line: usize) -> Result<f64, String> {

@@ -152,6 +152,35 @@ pub fn interior(a: &[bool], b: &[bool], (w, h): (u32, u32), margin: u32) -> Vec<
         .collect()
 }
 
+/// CIE L*a*b* (D65) of an sRGB colour.
+fn lab([r, g, b]: [u8; 3]) -> [f64; 3] {
+    let lin = |c: u8| {
+        let c = f64::from(c) / 255.0;
+        if c <= 0.040_45 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+    };
+    let (r, g, b) = (lin(r), lin(g), lin(b));
+    let x = (0.412_456_4 * r + 0.357_576_1 * g + 0.180_437_5 * b) / 0.950_47;
+    let y = 0.212_672_9 * r + 0.715_152_2 * g + 0.072_175_0 * b;
+    let z = (0.019_333_9 * r + 0.119_192_0 * g + 0.950_304_1 * b) / 1.088_83;
+    let f = |t: f64| if t > 216.0 / 24389.0 { t.cbrt() } else { (24389.0 / 27.0 * t + 16.0) / 116.0 };
+    let (fx, fy, fz) = (f(x), f(y), f(z));
+    [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
+}
+
+/// The mean colour difference ΔE (CIE76: distance in L*a*b*; about 2.3 is just noticeable)
+/// between two images over the pixels of `mask`; 0 when the mask is empty.
+pub fn delta_e(a: &image::RgbaImage, b: &image::RgbaImage, mask: &[bool]) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for ((p, q), &m) in a.pixels().zip(b.pixels()).zip(mask) {
+        if m {
+            let (x, y) = (lab([p[0], p[1], p[2]]), lab([q[0], q[1], q[2]]));
+            sum += ((x[0] - y[0]).powi(2) + (x[1] - y[1]).powi(2) + (x[2] - y[2]).powi(2)).sqrt();
+            n += 1;
+        }
+    }
+    if n == 0 { 0.0 } else { sum / n as f64 }
+}
+
 /// The sRGB RGBA8 encoding of a linear colour (as an sRGB render target stores it).
 pub fn srgb8(linear: [f64; 4]) -> [u8; 3] {
     let e = |c: f64| {
@@ -163,6 +192,16 @@ pub fn srgb8(linear: [f64; 4]) -> [u8; 3] {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn delta_e_is_zero_for_equal_images_and_about_100_from_black_to_white() {
+        let black = image::RgbaImage::from_pixel(4, 4, image::Rgba([0, 0, 0, 255]));
+        let white = image::RgbaImage::from_pixel(4, 4, image::Rgba([255, 255, 255, 255]));
+        let mask = vec![true; 16];
+        assert_eq!(super::delta_e(&black, &black, &mask), 0.0);
+        assert!((super::delta_e(&black, &white, &mask) - 100.0).abs() < 0.1);
+        assert_eq!(super::delta_e(&black, &white, &[false; 16]), 0.0);
+    }
+
     use super::*;
 
     #[test]

@@ -39,12 +39,25 @@ impl std::str::FromStr for ControllerKind {
     }
 }
 
-/// The camera the kiosk starts with: the whole model framed, looking along −Z with up +Y.
-pub fn initial_camera<B: AsRef<[u8]>>(store: &Store<B>, fov_y: f64, up: DVec3) -> Camera {
+/// The side of a model the start view looks at when its exhibit does not say: +Z (the view
+/// looks along −Z), or −Y for a model standing on Z.
+pub fn default_front(up: DVec3) -> DVec3 {
+    if up.dot(DVec3::Z).abs() > 0.9 { DVec3::NEG_Y } else { DVec3::Z }
+}
+
+/// The camera the kiosk starts with: the whole model framed from its `front` side (unit,
+/// perpendicular to `up`; `None`: [`default_front`]), upright.
+pub fn start_camera<B: AsRef<[u8]>>(store: &Store<B>, fov_y: f64, up: DVec3, front: Option<DVec3>) -> Camera {
     let center = store.to_model(store.bbox().center());
     let radius = f64::from(store.bbox().diagonal()) * 0.5;
-    let from = if up.dot(DVec3::Z).abs() > 0.9 { DVec3::NEG_Y } else { DVec3::Z };
+    let from =
+        front.map(|f| f - up * f.dot(up)).and_then(DVec3::try_normalize).unwrap_or_else(|| default_front(up));
     Camera::framing(center, radius.max(f64::MIN_POSITIVE), from, up, fov_y)
+}
+
+/// [`start_camera`] from the default front.
+pub fn initial_camera<B: AsRef<[u8]>>(store: &Store<B>, fov_y: f64, up: DVec3) -> Camera {
+    start_camera(store, fov_y, up, None)
 }
 
 /// Builds the controller of a replay (or of the kiosk); `aspect` is the projection's width /
