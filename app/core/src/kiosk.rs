@@ -19,6 +19,7 @@
 //! Each model's long-run statistics live in the kiosk across visits ([`Kiosk::stats`]); the
 //! shell loads and saves them. With `popularity` on, each new exploration's γ comes from them.
 
+use crate::clock::{FixedClock, SessionFeed};
 use crate::explore::ExploreSettings;
 use crate::explore::Explorer;
 use crate::gesture::{TouchEvent, TouchKind};
@@ -686,16 +687,12 @@ pub fn run_session<B: AsRef<[u8]>>(
     extra_secs: f64,
 ) -> Vec<KioskFrame> {
     let mut kiosk = Kiosk::new(settings.clone(), models.len(), 0.0);
-    let dt = 1.0 / settings.explore.fps;
-    let frames = ((session.duration() + extra_secs) * settings.explore.fps).ceil() as u64 + 1;
-    let mut next = 0;
-    let mut out = Vec::with_capacity(frames as usize);
-    for k in 0..frames {
-        let t = k as f64 * dt;
-        while next < session.events.len() && session.events[next].t <= t + 1e-9 {
-            kiosk.touch(&session.events[next]);
-            next += 1;
-        }
+    let mut clock = FixedClock::new(settings.explore.fps);
+    let end = clock.time(clock.steps_for(session.duration() + extra_secs) - 1);
+    let mut feed = SessionFeed::once();
+    let mut out = Vec::new();
+    while let Some(t) = clock.next_due(end) {
+        feed.due(session, t, &mut |e| kiosk.touch(e));
         out.push(kiosk.step(models, t));
     }
     out

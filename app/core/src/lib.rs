@@ -6,6 +6,7 @@
 //! crate disallows the clock and the filesystem so the compiler guards that promise.
 
 pub mod camera;
+pub mod clock;
 pub mod explore;
 pub mod geom;
 pub mod gesture;

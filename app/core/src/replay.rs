@@ -3,6 +3,7 @@
 //! settings and seed → byte-identical trace.
 
 pub use crate::camera::{ControllerKind, initial_camera, make_controller, start_camera};
+use crate::clock::{FixedClock, SessionFeed};
 pub use crate::explore::ExploreSettings;
 use crate::explore::Explorer;
 use crate::graph::InfoGraph;
@@ -38,16 +39,12 @@ pub fn run_story_with<B: AsRef<[u8]>>(
     frame: &mut dyn FnMut(Frame),
 ) -> (&'static str, Summary) {
     let mut explorer = Explorer::new(store, graph, settings, 0.0);
-    let dt = 1.0 / settings.fps;
+    let mut clock = FixedClock::new(settings.fps);
     // Session times are bounded when parsed (`session::MAX_SESSION_SECS`).
-    let frames = ((session.duration() + settings.tail_secs) * settings.fps).ceil() as u64 + 1;
-    let mut next = 0usize;
-    for k in 0..frames {
-        let t = k as f64 * dt;
-        while next < session.events.len() && session.events[next].t <= t + 1e-9 {
-            explorer.touch(&session.events[next]);
-            next += 1;
-        }
+    let end = clock.time(clock.steps_for(session.duration() + settings.tail_secs) - 1);
+    let mut feed = SessionFeed::once();
+    while let Some(t) = clock.next_due(end) {
+        feed.due(session, t, &mut |e| explorer.touch(e));
         frame(explorer.step(store, graph, t).0);
     }
     (explorer.controller_name(), explorer.summary)

@@ -6,6 +6,7 @@
 //!   screenshots due (`--screenshot-at`) and a soak run's reports (`--run-for`): resident memory,
 //!   open file descriptors and the size of the state directory (statistics and visit log).
 
+use kiosk_core::clock::SessionFeed;
 use kiosk_core::gesture::TouchEvent;
 use kiosk_core::session::Session;
 use std::io::Write;
@@ -16,16 +17,15 @@ const NEXT_VISITOR_SECS: f64 = 2.0;
 /// The touches of the live windows and of a recorded session, handed out at their step.
 pub(super) struct Input {
     live: Vec<TouchEvent>,
-    session: Option<Session>,
-    next: usize,
-    offset: f64,
-    repeat: bool,
+    /// The recorded session and where its playing stands (the core's feed, as replays use it).
+    session: Option<(Session, SessionFeed)>,
 }
 
 impl Input {
     /// Live input, plus `session` played from kiosk time 0 (again and again when `repeat`).
     pub(super) fn new(session: Option<Session>, repeat: bool) -> Self {
-        Self { live: Vec::new(), session, next: 0, offset: 0.0, repeat }
+        let feed = if repeat { SessionFeed::repeating(NEXT_VISITOR_SECS) } else { SessionFeed::once() };
+        Self { live: Vec::new(), session: session.map(|s| (s, feed)) }
     }
 
     /// Queues a live touch for the step at or after its time.
@@ -35,29 +35,14 @@ impl Input {
 
     /// Kiosk time at which a session run is over (`run_for` for a soak run), `None` when live.
     pub(super) fn end(&self, run_for: Option<f64>) -> Option<f64> {
-        self.session.as_ref().map(|s| run_for.unwrap_or(s.duration() + 1.0))
+        self.session.as_ref().map(|(s, _)| run_for.unwrap_or(s.duration() + 1.0))
     }
 
     /// Hands `feed` every touch due at kiosk time `t`, the session's first, in order; a live
     /// touch stamped after the step's time waits for its step.
     pub(super) fn due(&mut self, t: f64, feed: &mut dyn FnMut(&TouchEvent)) {
-        if let Some(session) = &self.session {
-            loop {
-                if self.next >= session.events.len() {
-                    if self.repeat && t >= self.offset + session.duration() + NEXT_VISITOR_SECS {
-                        self.offset = t;
-                        self.next = 0;
-                        continue;
-                    }
-                    break;
-                }
-                let e = session.events[self.next];
-                if e.t + self.offset > t + 1e-9 {
-                    break;
-                }
-                feed(&TouchEvent { t: e.t + self.offset, ..e });
-                self.next += 1;
-            }
+        if let Some((session, playing)) = &mut self.session {
+            playing.due(session, t, feed);
         }
         self.live.retain(|e| {
             if e.t <= t + 1e-9 {

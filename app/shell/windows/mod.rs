@@ -216,8 +216,8 @@ struct Running {
     start: Instant,
     /// Kiosk time of the last 60 Hz step.
     sim_t: f64,
-    /// Frames stepped.
-    steps: u64,
+    /// The core's fixed clock (the one replays step by).
+    clock: kiosk_core::clock::FixedClock,
     /// Live touches and the recorded session.
     input: drive::Input,
     /// The trace, screenshots and soak reports.
@@ -318,6 +318,7 @@ impl App {
             .unwrap_or(cfg.seed);
         let settings =
             kiosk_settings(cfg, projection.canvas.size, f64::from(ctrl.0) / f64::from(ctrl.1.max(1)), seed);
+        let fps = settings.explore.fps;
         let mut kiosk = Kiosk::new(settings, self.exhibits.len(), 0.0);
         let state_dir = cfg.state_dir();
         for (i, ex) in self.exhibits.iter().enumerate() {
@@ -371,7 +372,7 @@ impl App {
             narrator,
             start: Instant::now(),
             sim_t: 0.0,
-            steps: 0,
+            clock: kiosk_core::clock::FixedClock::new(fps),
             input,
             probes,
             record,
@@ -438,14 +439,14 @@ impl ApplicationHandler for App {
                     TouchPhase::Ended => TouchKind::Up,
                     TouchPhase::Cancelled => TouchKind::Cancel,
                 };
-                s.input(TouchEvent { t: s.clock(self.opts.speed), ev, id: t.id as i64, x, y });
+                s.input(TouchEvent { t: s.kiosk_time(self.opts.speed), ev, id: t.id as i64, x, y });
             }
             WindowEvent::CursorMoved { position, .. } => {
                 s.cursor = s.normalised(position.x, position.y);
                 if s.mouse_down {
                     let (x, y) = s.cursor;
                     s.input(TouchEvent {
-                        t: s.clock(self.opts.speed),
+                        t: s.kiosk_time(self.opts.speed),
                         ev: TouchKind::Move,
                         id: MOUSE_FINGER,
                         x,
@@ -455,7 +456,7 @@ impl ApplicationHandler for App {
             }
             WindowEvent::MouseInput { state, button, .. } => {
                 let (x, y) = s.cursor;
-                let t = s.clock(self.opts.speed);
+                let t = s.kiosk_time(self.opts.speed);
                 match (button, state) {
                     (MouseButton::Left, ElementState::Pressed) => {
                         s.mouse_down = true;
@@ -488,7 +489,7 @@ impl ApplicationHandler for App {
 
 impl Running {
     /// Kiosk time now.
-    fn clock(&self, speed: f64) -> f64 {
+    fn kiosk_time(&self, speed: f64) -> f64 {
         self.start.elapsed().as_secs_f64() * speed.max(1e-3)
     }
 
@@ -513,16 +514,15 @@ impl Running {
 
     /// Steps the core up to the clock, renders, and takes due screenshots. `false` = done.
     fn tick(&mut self, opts: &RunOptions, exhibits: &[Exhibit]) -> anyhow::Result<bool> {
-        let dt = 1.0 / self.kiosk.settings.explore.fps;
-        let now = self.clock(opts.speed);
+        let dt = self.clock.dt();
+        let now = self.kiosk_time(opts.speed);
         let end = self.input.end(opts.run_for);
         let models: Vec<ModelRef<'_, memmap2::Mmap>> = exhibits
             .iter()
             .map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref(), up: e.up, front: e.front })
             .collect();
         let mut stepped = false;
-        while self.sim_t + dt <= now {
-            let t = self.steps as f64 * dt;
+        while let Some(t) = self.clock.next_due(now) {
             let kiosk = &mut self.kiosk;
             self.input.due(t, &mut |e| kiosk.touch(e));
             let before = self.kiosk.mode();
@@ -543,9 +543,8 @@ impl Running {
             }
             self.persist(exhibits, false);
             self.sim_t = t;
-            self.steps += 1;
             stepped = true;
-            self.probes.stepped(&frame, t, self.steps, dt)?;
+            self.probes.stepped(&frame, t, self.clock.steps(), dt)?;
             if let Some(at) = self.probes.screenshot_due(t) {
                 self.render(exhibits, t)?;
                 self.capture(&opts.screenshot_dir, at)?;
@@ -560,7 +559,12 @@ impl Running {
         if let Some(e) = end
             && self.sim_t >= e
         {
-            self.probes.finish(self.sim_t, self.start.elapsed().as_secs_f64(), self.steps, self.rendered)?;
+            self.probes.finish(
+                self.sim_t,
+                self.start.elapsed().as_secs_f64(),
+                self.clock.steps(),
+                self.rendered,
+            )?;
             return Ok(false);
         }
         Ok(true)
