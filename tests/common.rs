@@ -1,7 +1,7 @@
 //! Helpers shared by the integration tests.
 
 use glam::DVec3;
-use kiosk::MappedStore;
+use kiosk_content::MappedStore;
 use kiosk_import::source::{self, InputPoint, ReadOptions};
 use kiosk_import::{BuildParams, BuildSummary, Builder};
 use std::path::{Path, PathBuf};
@@ -41,7 +41,7 @@ pub fn try_build(points: &[InputPoint], params: BuildParams) -> Result<Built, ki
         b.push(*p)?;
     }
     let summary = b.finish(&out, &mut |_| {})?;
-    let store = kiosk::open_store(&out).unwrap_or_else(|e| panic!("{e:#}"));
+    let store = kiosk_content::open_store(&out).unwrap_or_else(|e| panic!("{e:#}"));
     Ok(Built { store, summary, _dir: dir })
 }
 

@@ -1,35 +1,6 @@
-//! The imperative shell of IsoKiosk: files, memory maps, the clock, the terminal. It feeds the
-//! pure core (`kiosk-core`) and the import edge (`kiosk-import`).
+//! The imperative shell of IsoKiosk: the kiosk's windows, its clock and terminal, and the
+//! statistics report. It feeds the pure core (`kiosk-core`) with what `kiosk-content` reads from
+//! disk (stores, exhibits, media, narration).
 
-pub mod exhibit;
-pub mod import;
-pub mod media;
 pub mod report;
-pub mod snapshot;
-pub mod stats;
 pub mod windows;
-
-use anyhow::Context;
-use kiosk_core::Store;
-use std::path::Path;
-
-/// A store opened through a read-only memory map.
-pub type MappedStore = Store<memmap2::Mmap>;
-
-/// Opens a store file by memory mapping it; errors name the file.
-pub fn open_store(path: &Path) -> anyhow::Result<MappedStore> {
-    let file = std::fs::File::open(path).with_context(|| format!("cannot open store {}", path.display()))?;
-    // SAFETY-free: memmap2's `map` is unsafe only because another process could truncate the
-    // file under us; the store is written under a temporary name and renamed, never rewritten.
-    let map = map_readonly(&file).with_context(|| format!("cannot map store {}", path.display()))?;
-    Store::open(map).with_context(|| format!("{}", path.display()))
-}
-
-#[expect(
-    unsafe_code,
-    reason = "memory mapping is inherently unsafe if the file changes; stores are immutable once renamed into place"
-)]
-fn map_readonly(file: &std::fs::File) -> std::io::Result<memmap2::Mmap> {
-    // SAFETY: see `open_store`.
-    unsafe { memmap2::Mmap::map(file) }
-}

@@ -2,7 +2,7 @@
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
-use kiosk::import::{ImportOptions, import};
+use kiosk_content::import::{ImportOptions, import};
 use std::path::PathBuf;
 
 #[derive(Parser)]
@@ -275,7 +275,7 @@ fn main() -> anyhow::Result<()> {
             println!("{}: {report}", output.display());
         }
         Command::Verify { store } => {
-            let s = kiosk::open_store(&store)?;
+            let s = kiosk_content::open_store(&store)?;
             for id in 0..s.nodes().len() as u32 {
                 s.verify_node(id).with_context(|| format!("{}", store.display()))?;
             }
@@ -290,30 +290,37 @@ fn main() -> anyhow::Result<()> {
             );
         }
         Command::Snapshot { exhibit, view, node, size, output, splats, edl, tolerance } => {
-            let store = kiosk::exhibit::open_model(&exhibit)?;
-            let size = kiosk::snapshot::parse_size(&size)?;
+            let store = kiosk_content::exhibit::open_model(&exhibit)?;
+            let size = kiosk_content::snapshot::parse_size(&size)?;
             // The view and its light: a node's stored light, else the light a visit starts with.
-            let pose = kiosk::exhibit::model_pose(&exhibit)?;
+            let pose = kiosk_content::exhibit::model_pose(&exhibit)?;
             let start = kiosk_core::replay::start_camera(&store, 0.8, pose.up, pose.front);
-            let start_light = kiosk::windows::start_light(&start);
+            let start_light = kiosk_content::snapshot::start_light(&start);
             let (camera, light) = match (view, node) {
-                (Some(v), _) => (kiosk::snapshot::parse_view(&v)?, start_light),
+                (Some(v), _) => (kiosk_content::snapshot::parse_view(&v)?, start_light),
                 (None, Some(id)) => {
-                    let (graph, _) = kiosk::exhibit::open_graph(&exhibit)?
+                    let (graph, _) = kiosk_content::exhibit::open_graph(&exhibit)?
                         .with_context(|| format!("{}: no graph.xml for --node", exhibit.display()))?;
                     let i = graph.index_of(&id).with_context(|| format!("no node '{id}' in the graph"))?;
-                    (graph.nodes[i].view, kiosk::windows::node_light(&graph.nodes[i], start_light))
+                    (graph.nodes[i].view, kiosk_content::snapshot::node_light(&graph.nodes[i], start_light))
                 }
                 (None, None) => (start, start_light),
             };
-            let (gpu, mut renderer) = kiosk::snapshot::offscreen()?;
+            let (gpu, mut renderer) = kiosk_content::snapshot::offscreen()?;
             gpu.check_size(size).with_context(|| format!("--size {}x{}", size.0, size.1))?;
-            let settings = kiosk::windows::lit(
+            let settings = kiosk_content::snapshot::lit(
                 kiosk_render::RenderSettings { mode: splats, edl_strength: edl, ..Default::default() },
                 light,
             );
-            let image =
-                kiosk::snapshot::snapshot(&gpu, &mut renderer, &store, &camera, size, tolerance, &settings)?;
+            let image = kiosk_content::snapshot::snapshot(
+                &gpu,
+                &mut renderer,
+                &store,
+                &camera,
+                size,
+                tolerance,
+                &settings,
+            )?;
             image.save(&output).with_context(|| format!("cannot write {}", output.display()))?;
             println!(
                 "{}: {}x{} on {} ({:?})",
@@ -331,7 +338,7 @@ fn main() -> anyhow::Result<()> {
                 (None, None) if std::path::Path::new("kiosk.toml").exists() => {
                     kiosk::windows::config::Config::load(std::path::Path::new("kiosk.toml"))?.state_dir()
                 }
-                (None, None) => kiosk::stats::state_dir(),
+                (None, None) => kiosk_content::stats::state_dir(),
             };
             let opts = kiosk::report::StatsOptions {
                 since: since.as_deref().map(kiosk::report::parse_date).transpose()?,
@@ -343,13 +350,13 @@ fn main() -> anyhow::Result<()> {
         }
         Command::SoundCheck { files, volume } => {
             anyhow::ensure!((0.0..=1.0).contains(&volume), "--volume {volume}: between 0 and 1");
-            let mut narrator = kiosk::windows::audio::Narrator::new(volume, false);
+            let mut narrator = kiosk_content::audio::Narrator::new(volume, false);
             anyhow::ensure!(
                 narrator.audible(),
                 "no audio device: the kiosk would be silent (captions still show); check the sound card and ALSA's default device"
             );
             let mut played = 0;
-            for path in kiosk::exhibit::narration_files(&files)? {
+            for path in kiosk_content::exhibit::narration_files(&files)? {
                 let secs = narrator.play_to_end(&path).map_err(anyhow::Error::msg)?;
                 println!("played {} ({secs:.1} s)", path.display());
                 played += 1;
@@ -357,8 +364,8 @@ fn main() -> anyhow::Result<()> {
             println!("{played} narration(s) played through the default audio device");
         }
         Command::Replay { exhibit, session, trace, controller, seed } => {
-            let store = kiosk::exhibit::open_model(&exhibit)?;
-            let pose = kiosk::exhibit::model_pose(&exhibit)?;
+            let store = kiosk_content::exhibit::open_model(&exhibit)?;
+            let pose = kiosk_content::exhibit::model_pose(&exhibit)?;
             let text = std::fs::read_to_string(&session)
                 .with_context(|| format!("cannot read session {}", session.display()))?;
             let parsed = kiosk_core::session::Session::parse(&text)
@@ -370,7 +377,7 @@ fn main() -> anyhow::Result<()> {
                 front: pose.front,
                 ..Default::default()
             };
-            let graph = match kiosk::exhibit::open_graph(&exhibit) {
+            let graph = match kiosk_content::exhibit::open_graph(&exhibit) {
                 Ok(Some((g, problems))) => {
                     for p in &problems {
                         eprintln!("warning: {}: {p}", exhibit.join("graph.xml").display());

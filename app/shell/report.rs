@@ -3,10 +3,10 @@
 //!
 //! Without `--since` the table comes from the exhibit's long-run statistics (`stats.json`, every
 //! visit since the kiosk started counting); with it, from the visit log's records since that
-//! day (the log keeps the latest visits only, see [`crate::stats::LogLimits`]). Dates are UTC.
+//! day (the log keeps the latest visits only, see [`kiosk_content::stats::LogLimits`]). Dates are UTC.
 
-use crate::stats::{read_visits, stats_path};
 use anyhow::Context as _;
+use kiosk_content::stats::{read_visits, stats_path};
 use kiosk_core::stats::{ExhibitStats, NodeTotals, VisitRecord};
 use plotters::prelude::*;
 use std::collections::BTreeMap;
@@ -139,7 +139,7 @@ pub fn run(opts: &StatsOptions) -> anyhow::Result<String> {
                 opts.exhibit,
                 opts.state.display()
             );
-            crate::stats::load_stats(&path)
+            kiosk_content::stats::load_stats(&path)
         }
     };
     let mut text = format!("{}: {} visits\n", opts.exhibit, stats.visits);
@@ -200,6 +200,156 @@ fn bars(path: &Path, title: &str, unit: &str, data: &[(String, f64)]) -> anyhow:
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DVec3;
+    use kiosk_content::stats::*;
+    use kiosk_core::camera::Camera;
+    use kiosk_core::graph::{InfoGraph, Node};
+    use kiosk_core::recommend::{RecEvent, RecSettings, RecState, Recommender, ViewContext};
+    use kiosk_core::stats::ExhibitStats;
+    use kiosk_core::stats::{ModelVisit, Observer, PopularitySettings, VisitEnd, adjusted_importance};
+    use rand::{Rng, SeedableRng};
+
+    fn graph(n: usize) -> InfoGraph {
+        let nodes = (0..n)
+            .map(|i| {
+                let a = i as f64 * 0.7;
+                Node {
+                    importance: 0.6,
+                    ..Node::new(
+                        format!("node-{i}"),
+                        Camera {
+                            eye: DVec3::new(a.cos() * 3.0, 0.1 * a, a.sin() * 3.0),
+                            target: DVec3::ZERO,
+                            up: DVec3::Y,
+                            fov_y: 0.8,
+                        },
+                    )
+                }
+            })
+            .collect();
+        InfoGraph { default_lang: "en".into(), nodes, edges: vec![] }
+    }
+
+    /// One simulated two-minute visit through the core's engine and observer.
+    fn visit(g: &InfoGraph, stats: &mut ExhibitStats, seed: u64, start: f64) -> VisitRecord {
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
+        let mut rec = Recommender::new(g, RecSettings::default(), start);
+        let on = PopularitySettings { enabled: true, ..PopularitySettings::default() };
+        if let Some(gamma) = adjusted_importance(g, stats, &on) {
+            rec.set_gamma(gamma);
+        }
+        let camera = Camera { eye: DVec3::new(0.0, 0.0, 4.0), target: DVec3::ZERO, up: DVec3::Y, fov_y: 0.8 };
+        let ctx = ViewContext { camera, aspect: 16.0 / 9.0, samples: &[], diagonal: 4.0, moving: false };
+        let mut obs = Observer::default();
+        let mut mv = ModelVisit { exhibit: "demo".into(), ..ModelVisit::default() };
+        let mut now = start;
+        while now < start + 120.0 {
+            now += 0.5;
+            let before = rec.state;
+            let ev = match before {
+                RecState::Propose { node, .. } if rng.random_bool(0.2 + 0.05 * (node % 10) as f64) => {
+                    RecEvent::LongPress
+                }
+                _ => RecEvent::Tick,
+            };
+            rec.step(g, &ctx, ev, now, &mut rng);
+            obs.step(g, (before, rec.state), now, true, stats, Some(&mut mv));
+        }
+        obs.close(g, now, stats, Some(&mut mv));
+        stats.visits += 1;
+        let mut v = VisitRecord::new(start, "en");
+        v.end = now;
+        v.last_touch = now - 30.0;
+        v.ended = VisitEnd::Reset;
+        v.models.push(mv);
+        v
+    }
+
+    #[test]
+    fn a_month_of_visits_keeps_the_statistics_and_the_log_bounded() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let state = dir.path();
+        let g = graph(12);
+        let limits = LogLimits { max_bytes: 64 << 10, keep: 4 };
+        let path = stats_path(state, "demo");
+        let day0 = 19_800.0 * 86_400.0;
+        let (per_day, days) = (80, 30);
+        let mut size_after_day1 = 0;
+        let mut largest_log = 0;
+        let mut last = None;
+        for day in 0..days {
+            for k in 0..per_day {
+                // As the kiosk does: statistics loaded at start (here: every visit), the visit's
+                // line appended and the statistics written when it ends.
+                let mut stats = load_stats(&path);
+                let seed = (day * per_day + k) as u64;
+                let mut v = visit(&g, &mut stats, seed, seed as f64 * 200.0);
+                v.wall_start = Some(day0 + day as f64 * 86_400.0 + k as f64 * 300.0);
+                v.wall_end = v.wall_start.map(|w| w + 120.0);
+                append_visit(state, &v, limits).expect("append");
+                save_stats(&path, &stats).expect("save");
+                largest_log = largest_log.max(std::fs::metadata(log_path(state, 0)).expect("log").len());
+                last = Some(v);
+            }
+            if day == 0 {
+                size_after_day1 = std::fs::metadata(&path).expect("stats").len();
+            }
+        }
+        let stats = load_stats(&path);
+        assert_eq!(stats.visits, (per_day * days) as u64);
+        assert_eq!(stats.nodes.len(), 12);
+        // The statistics file: one entry per node whatever the number of visits.
+        let size = std::fs::metadata(&path).expect("stats").len();
+        assert!(
+            size < 4096 && size < 2 * size_after_day1,
+            "{size} bytes after a month, {size_after_day1} after a day"
+        );
+        // The log: rotated, at most keep + 1 files, each within the limit.
+        assert!(largest_log <= limits.max_bytes, "{largest_log}");
+        assert!(log_path(state, limits.keep).exists(), "rotated {} times at least", limits.keep);
+        assert!(!log_path(state, limits.keep + 1).exists());
+        let total: u64 = (0..=limits.keep + 1)
+            .filter_map(|k| std::fs::metadata(log_path(state, k)).ok())
+            .map(|m| m.len())
+            .sum();
+        assert!(total <= (limits.keep as u64 + 1) * limits.max_bytes, "{total} bytes of log");
+        // What is kept is the latest visits, oldest first, complete.
+        let kept = read_visits(state);
+        assert!(kept.len() < per_day * days && kept.len() > per_day, "{} visits kept", kept.len());
+        assert_eq!(kept.last(), last.as_ref());
+        assert!(kept.windows(2).all(|w| w[0].start < w[1].start));
+        // No temporary file is left behind; nothing else was written.
+        let names: Vec<String> = std::fs::read_dir(state.join("demo"))
+            .expect("dir")
+            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names, [STATS_FILE]);
+        // `kiosk stats` on it: the table and three plots.
+        let out = dir.path().join("plots");
+        let since = super::parse_date("2024-03-20").expect("date");
+        let text = super::run(&super::StatsOptions {
+            exhibit: "demo".into(),
+            since: None,
+            out: out.clone(),
+            state: state.to_path_buf(),
+        })
+        .expect("report");
+        assert!(text.contains("node-11") && text.contains(&format!("{} visits", per_day * days)), "{text}");
+        for f in ["visits-per-day.svg", "dwell-per-node.svg", "acceptance-per-node.svg"] {
+            let svg = std::fs::read_to_string(out.join(f)).expect("plot");
+            assert!(svg.contains("<svg") && svg.contains("<rect"), "{f}");
+        }
+        // --since: only the logged visits of those days (2024-03-20 is day 19 802).
+        let text = super::run(&super::StatsOptions {
+            exhibit: "demo".into(),
+            since: Some(since),
+            out,
+            state: state.to_path_buf(),
+        })
+        .expect("report since");
+        let recent = kept.iter().filter(|v| v.wall_start.is_some_and(|w| w >= since)).count();
+        assert!(text.starts_with(&format!("demo: {recent} visits")), "{text}");
+    }
 
     #[test]
     fn civil_dates_round_trip() {

@@ -447,7 +447,7 @@ fn main() -> anyhow::Result<()> {
             EXHIBITS.iter().map(|e| e.dir).collect::<Vec<_>>().join(", ")
         );
     }
-    let (gpu, mut renderer) = kiosk::snapshot::offscreen()?;
+    let (gpu, mut renderer) = kiosk_content::snapshot::offscreen()?;
     for ex in EXHIBITS.iter().filter(|e| wanted.is_empty() || wanted.iter().any(|w| w == e.dir)) {
         build(ex, &gpu, &mut renderer)?;
     }
@@ -457,7 +457,7 @@ fn main() -> anyhow::Result<()> {
 /// Builds one exhibit's story from scratch: every node of its graph is replaced by the table's.
 fn build(ex: &Exhibit, gpu: &Gpu, renderer: &mut Renderer) -> anyhow::Result<()> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../content").join(ex.dir);
-    let model = kiosk::exhibit::model_file(&dir)?;
+    let model = kiosk_content::exhibit::model_file(&dir)?;
     anyhow::ensure!(
         model.file_name().is_some_and(|n| n == ex.scan),
         "{}: the exhibit's model is {}, expected {} (copy the scan there unchanged)",
@@ -596,7 +596,7 @@ fn preview(
     cam: &Camera,
     svg: &str,
 ) -> anyhow::Result<()> {
-    let mut img = kiosk::snapshot::snapshot(
+    let mut img = kiosk_content::snapshot::snapshot(
         gpu,
         renderer,
         &p.store,
@@ -605,7 +605,8 @@ fn preview(
         1.0,
         &RenderSettings::default(),
     )?;
-    let overlay = kiosk::media::svg_to_rgba(svg.as_bytes()).map_err(|e| anyhow::anyhow!("{id}: {e}"))?;
+    let overlay =
+        kiosk_content::media::svg_to_rgba(svg.as_bytes()).map_err(|e| anyhow::anyhow!("{id}: {e}"))?;
     image::imageops::overlay(&mut img, &overlay, 0, 0);
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/tmp/demo_content");
     std::fs::create_dir_all(&dir)?;

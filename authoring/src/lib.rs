@@ -8,7 +8,7 @@
 
 use anyhow::Context;
 use glam::DVec3;
-use kiosk::MappedStore;
+use kiosk_content::MappedStore;
 use kiosk_core::camera::Camera;
 use kiosk_core::graph::{Edge, InfoGraph, Node, PerLanguage, Problem};
 use kiosk_core::{Cut, CutParams};
@@ -42,26 +42,26 @@ pub struct Project {
     pub pose: ModelPose,
 }
 
-pub use kiosk::exhibit::{ModelPose, UP_AXES};
+pub use kiosk_content::exhibit::{ModelPose, UP_AXES};
 
 impl Project {
     /// Opens an exhibit directory (creating an empty graph when it has none).
     pub fn open(dir: &Path) -> anyhow::Result<(Self, Vec<Problem>)> {
-        let store = kiosk::exhibit::open_model(dir)?;
+        let store = kiosk_content::exhibit::open_model(dir)?;
         let graph_file = dir.join("graph.xml");
         let original = match std::fs::read_to_string(&graph_file) {
             Ok(text) => Some(text),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
             Err(e) => return Err(e).with_context(|| format!("cannot read {}", graph_file.display())),
         };
-        let (pose, up_problem) = match kiosk::exhibit::model_pose(dir) {
+        let (pose, up_problem) = match kiosk_content::exhibit::model_pose(dir) {
             Ok(pose) => (pose, None),
             Err(e) => (
                 ModelPose::default(),
                 Some(Problem { node: None, msg: format!("{e:#}; +Y up used"), dropped: false }),
             ),
         };
-        let (graph, mut problems) = match kiosk::exhibit::open_graph(dir)? {
+        let (graph, mut problems) = match kiosk_content::exhibit::open_graph(dir)? {
             Some((g, p)) => (g, p),
             None => (InfoGraph { default_lang: "en".into(), ..InfoGraph::default() }, Vec::new()),
         };
@@ -152,7 +152,7 @@ impl Project {
         anyhow::ensure!(self.graph.index_of(&id).is_none(), "a node '{id}' already exists");
         let thumbnail = match gpu {
             Some((gpu, renderer)) => {
-                let img = kiosk::snapshot::snapshot(
+                let img = kiosk_content::snapshot::snapshot(
                     gpu,
                     renderer,
                     &self.store,
@@ -192,7 +192,7 @@ impl Project {
     /// Attaches a narration file (relative to the exhibit) in a language.
     pub fn set_narration(&mut self, id: &str, lang: &str, rel: &str) -> anyhow::Result<()> {
         let i = self.index(id)?;
-        kiosk::media::resolve(&self.dir, rel).map_err(|e| anyhow::anyhow!("narration {rel}: {e}"))?;
+        kiosk_content::media::resolve(&self.dir, rel).map_err(|e| anyhow::anyhow!("narration {rel}: {e}"))?;
         let (lang, rel) = (lang.to_string(), rel.to_string());
         self.edit(|g| {
             g.nodes[i].narration.0.insert(lang, rel);
@@ -215,10 +215,10 @@ impl Project {
     pub fn attach_overlay(&mut self, id: &str, lang: &str, source: &Path) -> anyhow::Result<Option<String>> {
         let i = self.index(id)?;
         kiosk_core::graph::check_id(lang).map_err(|e| anyhow::anyhow!("language {e}"))?;
-        let (w, h) = if kiosk::media::is_svg(source) {
+        let (w, h) = if kiosk_content::media::is_svg(source) {
             // An SVG is drawn at the view's size; it must draw.
             let data = std::fs::read(source).with_context(|| format!("cannot read {}", source.display()))?;
-            kiosk::media::svg_to_rgba(&data)
+            kiosk_content::media::svg_to_rgba(&data)
                 .map_err(|e| anyhow::anyhow!("{}: not a readable SVG: {e}", source.display()))?
                 .dimensions()
         } else {
@@ -340,7 +340,8 @@ impl Project {
     pub fn validate(&self) -> Vec<Problem> {
         let mut p = self.graph.check_structure();
         p.extend(
-            self.graph.check_files(VIEW_ASPECT, &|rel: &str| kiosk::exhibit::probe_media(&self.dir, rel)),
+            self.graph
+                .check_files(VIEW_ASPECT, &|rel: &str| kiosk_content::exhibit::probe_media(&self.dir, rel)),
         );
         p
     }

@@ -23,7 +23,7 @@ fn main() -> anyhow::Result<()> {
         .init();
     let cli = Cli::parse();
     let (project, problems) = kiosk_author::Project::open(&cli.exhibit)?;
-    let gpu = match kiosk::snapshot::offscreen() {
+    let gpu = match kiosk_content::snapshot::offscreen() {
         Ok(g) => Some(g),
         Err(e) => {
             tracing::error!("no GPU for the live view and thumbnails: {e:#}");
@@ -32,9 +32,11 @@ fn main() -> anyhow::Result<()> {
     };
     let mut app = kiosk_author::ui::AuthorApp::new(project, problems, gpu);
     // The kiosk's statistics of this exhibit, where the kiosk keeps them (read only).
-    let stats =
-        kiosk::stats::stats_path(&kiosk::stats::state_dir(), &kiosk::stats::exhibit_name(&cli.exhibit));
-    app.visitor_stats = kiosk::stats::load_stats(&stats);
+    let stats = kiosk_content::stats::stats_path(
+        &kiosk_content::stats::state_dir(),
+        &kiosk_content::stats::exhibit_name(&cli.exhibit),
+    );
+    app.visitor_stats = kiosk_content::stats::load_stats(&stats);
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
             .with_inner_size([1400.0, 900.0])

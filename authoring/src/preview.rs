@@ -2,8 +2,8 @@
 //! with a seed (the kiosk's attract loop: every proposal accepted), and a recorded kiosk session
 //! replayed against the graph being edited.
 
-use kiosk::MappedStore;
-use kiosk::exhibit::ModelPose;
+use kiosk_content::MappedStore;
+use kiosk_content::exhibit::ModelPose;
 use kiosk_core::explore::Explorer;
 use kiosk_core::graph::InfoGraph;
 use kiosk_core::kiosk::{KioskSettings, Mode, ModelRef, run_session};

@@ -28,7 +28,8 @@ fn author_a_small_graph_save_and_reload_identically() {
     let dir = exhibit();
     let (mut p, problems) = Project::open(dir.path()).expect("open");
     assert!(problems.is_empty() && p.graph.nodes.is_empty());
-    let (gpu, mut renderer) = kiosk::snapshot::offscreen().expect("a GPU adapter (lavapipe) is required");
+    let (gpu, mut renderer) =
+        kiosk_content::snapshot::offscreen().expect("a GPU adapter (lavapipe) is required");
     let a = p.capture(orbit(&p, 0.0), Some("front"), Some((&gpu, &mut renderer))).expect("capture");
     let b = p.capture(orbit(&p, 40.0), None, Some((&gpu, &mut renderer))).expect("capture");
     assert_eq!(b, "view-1");
@@ -116,7 +117,8 @@ fn an_interrupted_save_keeps_the_previous_file() {
 fn ids_and_languages_that_would_name_files_outside_the_exhibit_are_refused() {
     let dir = exhibit();
     let (mut p, _) = Project::open(dir.path()).expect("open");
-    let (gpu, mut renderer) = kiosk::snapshot::offscreen().expect("a GPU adapter (lavapipe) is required");
+    let (gpu, mut renderer) =
+        kiosk_content::snapshot::offscreen().expect("a GPU adapter (lavapipe) is required");
     let e = p
         .capture(orbit(&p, 0.0), Some("../../escaped"), Some((&gpu, &mut renderer)))
         .expect_err("an id with a path in it");
@@ -193,7 +195,7 @@ fn a_curator_turns_the_model_upright_and_the_kiosk_reads_it() {
     let (mut p, _) = Project::open(dir.path()).expect("open");
     assert_eq!(p.pose.up, DVec3::Y, "no exhibit.toml: +Y");
     p.set_up(DVec3::Z).expect("set up");
-    assert_eq!(kiosk::exhibit::model_up(dir.path()).expect("the kiosk reads it"), DVec3::Z);
+    assert_eq!(kiosk_content::exhibit::model_up(dir.path()).expect("the kiosk reads it"), DVec3::Z);
     let (again, problems) = Project::open(dir.path()).expect("reopen");
     assert_eq!(again.pose.up, DVec3::Z);
     assert!(problems.is_empty(), "{problems:?}");
@@ -212,7 +214,7 @@ fn a_curator_turns_the_model_to_its_front_and_the_kiosk_starts_there() {
     // Looking from below-left-behind: the front is that side, levelled to the up axis.
     p.set_front(DVec3::new(-1.0, -0.5, -1.0)).expect("set front");
     let front = DVec3::new(-1.0, 0.0, -1.0).normalize();
-    let pose = kiosk::exhibit::model_pose(dir.path()).expect("the kiosk reads it");
+    let pose = kiosk_content::exhibit::model_pose(dir.path()).expect("the kiosk reads it");
     assert!(pose.front.expect("a front").abs_diff_eq(front, 1e-9), "{pose:?}");
     let start = kiosk_core::replay::start_camera(&p.store, 0.8, pose.up, pose.front);
     assert!(
@@ -224,9 +226,9 @@ fn a_curator_turns_the_model_to_its_front_and_the_kiosk_starts_there() {
     // it would lie along the new up axis.
     p.set_front(DVec3::X).expect("front +X");
     p.set_up(DVec3::Z).expect("up Z");
-    assert_eq!(kiosk::exhibit::model_pose(dir.path()).expect("read").front, Some(DVec3::X));
+    assert_eq!(kiosk_content::exhibit::model_pose(dir.path()).expect("read").front, Some(DVec3::X));
     p.set_up(DVec3::X).expect("up X");
-    let pose = kiosk::exhibit::model_pose(dir.path()).expect("read");
+    let pose = kiosk_content::exhibit::model_pose(dir.path()).expect("read");
     assert_eq!((pose.up, pose.front), (DVec3::X, None));
 }
 

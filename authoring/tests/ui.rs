@@ -15,7 +15,7 @@ fn repo() -> PathBuf {
 
 fn harness(dir: &Path) -> Harness<'static, AuthorApp> {
     let (project, problems) = Project::open(dir).expect("open the exhibit");
-    let gpu = kiosk::snapshot::offscreen().expect("a GPU adapter (lavapipe: .ci/setup installs it)");
+    let gpu = kiosk_content::snapshot::offscreen().expect("a GPU adapter (lavapipe: .ci/setup installs it)");
     let app = AuthorApp::new(project, problems, Some(gpu));
     let mut h = Harness::new_ui_state(|ui, app: &mut AuthorApp| app.ui(ui), app);
     h.set_size(egui::vec2(1400.0, 900.0));
@@ -151,7 +151,7 @@ fn a_curator_authors_a_story_through_the_window_and_the_kiosk_replays_it() {
     // Save and check what the kiosk makes of it.
     click(&mut h, "Save");
     assert!(!h.state().project.dirty());
-    let (graph, problems) = kiosk::exhibit::open_graph(dir.path()).expect("read").expect("graph.xml");
+    let (graph, problems) = kiosk_content::exhibit::open_graph(dir.path()).expect("read").expect("graph.xml");
     assert_eq!(graph.nodes.len(), 2);
     assert_eq!(graph.nodes[1].title.0.get("it").map(String::as_str), Some("Il fianco"));
     assert!(problems.iter().all(|p| !p.dropped), "{problems:?}");
@@ -290,7 +290,7 @@ fn the_side_in_view_becomes_the_front_from_the_toolbar() {
     click(&mut h, "Front from view");
     let saved = std::fs::read_to_string(dir.path().join("exhibit.toml")).expect("exhibit.toml written");
     assert!(saved.contains("front = "), "{saved}");
-    let pose = kiosk::exhibit::model_pose(dir.path()).expect("the kiosk reads it");
+    let pose = kiosk_content::exhibit::model_pose(dir.path()).expect("the kiosk reads it");
     assert!(pose.front.expect("front").dot(side) > 0.999, "{pose:?} vs {side}");
     let start = h.state().camera();
     assert!((start.eye - start.target).normalize().dot(side) > 0.999, "the live view starts at the front");
@@ -323,7 +323,7 @@ fn a_views_light_is_steered_in_the_live_view_and_saved_with_it() {
     assert_eq!(h.state().project.graph.nodes[i].light, Some(light.dir));
     click(&mut h, "Save");
     let after = std::fs::read_to_string(dir.path().join("graph.xml")).expect("graph");
-    let (graph, problems) = kiosk::exhibit::open_graph(dir.path()).expect("read").expect("graph.xml");
+    let (graph, problems) = kiosk_content::exhibit::open_graph(dir.path()).expect("read").expect("graph.xml");
     assert!(problems.is_empty(), "{problems:?}");
     assert_eq!(graph.nodes[i].light, Some(light.dir), "the saved light reads back exactly");
     assert!(after.contains(" light=\""), "{after}");

@@ -9,7 +9,7 @@
 //!    chosen isolevel, smoothness (angular acceleration of the view direction, jerk of the eye).
 
 use glam::DVec3;
-use kiosk::MappedStore;
+use kiosk_content::MappedStore;
 use kiosk_core::camera::{IsoCam, IsoCamSettings, SceneRef};
 use kiosk_core::replay::{self, ControllerKind, ExploreSettings, Trace, initial_camera};
 use kiosk_core::session::Script;
@@ -26,13 +26,13 @@ fn main() -> anyhow::Result<()> {
     let scan = kiosk_testkit::synthetic::dragon_scan();
     let dir = tempfile::tempdir()?;
     let scan_store = dir.path().join("dragon.kstore");
-    kiosk::import::import(&scan, &scan_store, &Default::default())?;
+    kiosk_content::import::import(&scan, &scan_store, &Default::default())?;
     let mut models: Vec<(String, MappedStore)> =
-        vec![("dragon (437 k)".into(), kiosk::open_store(&scan_store)?)];
+        vec![("dragon (437 k)".into(), kiosk_content::open_store(&scan_store)?)];
     for n in [50_000_000u64, 10_000_000] {
         let p = out_dir.join(format!("synthetic-{n}.kstore"));
         if p.exists() {
-            models.push((format!("synthetic {} M", n / 1_000_000), kiosk::open_store(&p)?));
+            models.push((format!("synthetic {} M", n / 1_000_000), kiosk_content::open_store(&p)?));
             break;
         }
     }

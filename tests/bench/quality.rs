@@ -4,7 +4,7 @@
 //! the model, 2 px from both images' silhouettes, stepping by > 12/255 to a neighbour) and ms per frame; then SSIM against the cut's
 //! pixel tolerance at the far view; plots in target/bench/render-quality*.svg.
 
-use kiosk::MappedStore;
+use kiosk_content::MappedStore;
 use kiosk_core::camera::Camera;
 use kiosk_core::{Cut, CutParams};
 use kiosk_render::reference::MeshRenderer;
@@ -105,9 +105,9 @@ pub fn run(
     for (name, rel) in MODELS {
         let path = root.join(rel);
         let store_path = dir.path().join(format!("{}.kstore", name.split(' ').next().unwrap_or("m")));
-        let opts = kiosk::import::ImportOptions { progress: false, ..Default::default() };
-        kiosk::import::import(&path, &store_path, &opts)?;
-        let store = kiosk::open_store(&store_path)?;
+        let opts = kiosk_content::import::ImportOptions { progress: false, ..Default::default() };
+        kiosk_content::import::import(&path, &store_path, &opts)?;
+        let store = kiosk_content::open_store(&store_path)?;
         let mesh = kiosk_testkit::mesh::read(&path).map_err(anyhow::Error::msg)?;
         for (view, cam) in kiosk_testkit::mesh::views(&store, &mesh) {
             let reference = mesh_renderer.render_image(gpu, &mesh, &cam, size, &base)?;
@@ -245,7 +245,7 @@ fn plot(rows: &[Row], tolerance: &[ToleranceSeries], out_dir: &Path) -> anyhow::
     drop(root);
     // A PNG beside it, to look at without an SVG viewer.
     let png = svg.with_extension("png");
-    kiosk::media::svg_to_rgba(&std::fs::read(&svg)?).map_err(anyhow::Error::msg)?.save(&png)?;
+    kiosk_content::media::svg_to_rgba(&std::fs::read(&svg)?).map_err(anyhow::Error::msg)?.save(&png)?;
     println!("\nplot: {} ({})", svg.display(), png.display());
     Ok(())
 }

@@ -18,7 +18,7 @@ mod quality;
 mod texel;
 
 use glam::DVec3;
-use kiosk::MappedStore;
+use kiosk_content::MappedStore;
 use kiosk_core::camera::Camera;
 use kiosk_core::{Cut, CutParams};
 use kiosk_render::{RenderSettings, SplatMode};
@@ -50,7 +50,7 @@ fn main() -> anyhow::Result<()> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let out_dir = root.join("target/bench");
     std::fs::create_dir_all(&out_dir)?;
-    let (gpu, mut renderer) = kiosk::snapshot::offscreen()?;
+    let (gpu, mut renderer) = kiosk_content::snapshot::offscreen()?;
     println!("adapter: {} ({:?}, {:?})", gpu.adapter.name, gpu.adapter.backend, gpu.adapter.device_type);
     let quality_size = (1920, 1080);
     if std::env::args().any(|a| a == "--texel-only") {
@@ -63,12 +63,12 @@ fn main() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
     let scan = kiosk_testkit::synthetic::dragon_scan();
     let scan_store = dir.path().join("dragon.kstore");
-    kiosk::import::import(&scan, &scan_store, &Default::default())?;
+    kiosk_content::import::import(&scan, &scan_store, &Default::default())?;
     let tradeoff_only = std::env::args().any(|a| a == "--tradeoff-only");
-    let mut models = vec![("dragon (437 k)".to_string(), kiosk::open_store(&scan_store)?)];
+    let mut models = vec![("dragon (437 k)".to_string(), kiosk_content::open_store(&scan_store)?)];
     let big = out_dir.join("synthetic-50000000.kstore");
     if big.exists() && !tradeoff_only {
-        models.push(("synthetic 50 M".into(), kiosk::open_store(&big)?));
+        models.push(("synthetic 50 M".into(), kiosk_content::open_store(&big)?));
     } else {
         println!(
             "(no target/bench/synthetic-50000000.kstore: run `cargo bench --bench scene -- --points 50000000` first)"

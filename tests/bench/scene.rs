@@ -16,7 +16,7 @@
 
 use anyhow::Context;
 use glam::{DVec3, Vec3};
-use kiosk::MappedStore;
+use kiosk_content::MappedStore;
 use kiosk_core::scene::query::Level;
 use kiosk_core::{Cut, CutParams, QueryParams, ViewParams};
 use kiosk_import::source::{self, InputPoint, ReadOptions};
@@ -38,7 +38,7 @@ fn main() -> anyhow::Result<()> {
         // Side by side on existing stores (e.g. built by two versions of the builder).
         let stores = args[i + 1..]
             .iter()
-            .map(|p| Ok((p.clone(), kiosk::open_store(Path::new(p))?)))
+            .map(|p| Ok((p.clone(), kiosk_content::open_store(Path::new(p))?)))
             .collect::<anyhow::Result<Vec<_>>>()?;
         query_header();
         for _round in 0..2 {
@@ -135,9 +135,9 @@ fn main() -> anyhow::Result<()> {
     // 2. Queries.
     println!("\n## Fine and coarse targets on a 1 px cut (1920×1080), median µs per query");
     query_header();
-    let mut models = vec![("scan".to_string(), kiosk::open_store(&scan_store)?)];
+    let mut models = vec![("scan".to_string(), kiosk_content::open_store(&scan_store)?)];
     for (n, p) in &synthetic_stores {
-        models.push((format!("synthetic {} M", n / 1_000_000), kiosk::open_store(p)?));
+        models.push((format!("synthetic {} M", n / 1_000_000), kiosk_content::open_store(p)?));
     }
     for (name, store) in &models {
         query_row(name, store);
@@ -511,7 +511,7 @@ fn tradeoff(scan: &Path, out_dir: &Path, quick: bool) -> anyhow::Result<()> {
         }
         let s = b.finish(&out, &mut |_| {})?;
         let build_s = t.elapsed().as_secs_f64();
-        let store = kiosk::open_store(&out)?;
+        let store = kiosk_content::open_store(&out)?;
         let cut = Cut::leaves(&store);
         let qs = near_surface_queries(&store, &cut, n_queries, 2);
         read_cut(&store, &cut);
@@ -545,7 +545,7 @@ fn tradeoff(scan: &Path, out_dir: &Path, quick: bool) -> anyhow::Result<()> {
     println!("| K | depth | µs per query | error median (spacings) | error p95 |");
     println!("|---|---|---|---|---|");
     let out = dir.path().join("m8192.kstore");
-    let store = kiosk::open_store(&out)?;
+    let store = kiosk_content::open_store(&out)?;
     let cut = Cut::leaves(&store);
     let qs = near_surface_queries(&store, &cut, n_queries, 3);
     let mut series_k: Vec<(u32, Vec<(f64, f64)>)> = Vec::new();
@@ -593,7 +593,7 @@ fn knn_tradeoff(pts: &[InputPoint], dir: &Path) -> anyhow::Result<()> {
         }
         let s = b.finish(&out, &mut |_| {})?;
         let build_s = t.elapsed().as_secs_f64();
-        let store = kiosk::open_store(&out)?;
+        let store = kiosk_content::open_store(&out)?;
         // Leaf samples are the input positions in local f32 coordinates: find each one's vertex.
         let reference = reference.get_or_insert_with(|| {
             pts.iter().map(|p| (store.to_local(p.pos).to_array().map(f32::to_bits), p.normal)).collect()

@@ -64,14 +64,18 @@ fn main() {
     println!();
     // At most ~24 rows: every k-th sample, and the last.
     let k = series.len().div_ceil(24).max(1);
-    println!("| kiosk time (h) | RSS (MB) | open files | state (kB) |");
-    println!("|---|---|---|---|");
+    println!(
+        "| kiosk time (h) | RSS (MB) | of which anonymous | of which mapped files | open files | state (kB) |"
+    );
+    println!("|---|---|---|---|---|---|");
     for (i, s) in series.iter().enumerate() {
         if i % k == k - 1 || i + 1 == series.len() {
             println!(
-                "| {:.2} | {:.1} | {} | {:.0} |",
+                "| {:.2} | {:.1} | {:.1} | {:.1} | {} | {:.0} |",
                 s.t / 3600.0,
                 s.rss_kb / 1024.0,
+                s.anon_kb / 1024.0,
+                s.file_kb / 1024.0,
                 s.fds,
                 s.state / 1024.0
             );
@@ -83,8 +87,8 @@ fn main() {
     let max_rss = after.iter().map(|s| s.rss_kb).fold(0.0, f64::max);
     let max_fds = after.iter().map(|s| s.fds).max().unwrap_or(0);
     let max_state = series.iter().map(|s| s.state).fold(0.0, f64::max);
-    let limits = kiosk::stats::LogLimits::default();
-    // The log's bound (kiosk::stats::append_visit) plus 1 MiB for the statistics files.
+    let limits = kiosk_content::stats::LogLimits::default();
+    // The log's bound (kiosk_content::stats::append_visit) plus 1 MiB for the statistics files.
     let state_bound = ((limits.keep as u64 + 1) * limits.max_bytes + (1 << 20)) as f64;
     let pct = |a: f64, b: f64| 100.0 * (b - a) / a.max(1.0);
     let goal = |ok: bool| if ok { "met" } else { "NOT met" };
@@ -127,12 +131,16 @@ fn main() {
     }
 }
 
-/// One report of the kiosk ("soak: t = 300 s, RSS 123 kB, 17 open files, state 4567 B").
+/// One report of the kiosk ("soak: t = 300 s, RSS 123 kB, 17 open files, state 4567 B, anon 100
+/// kB, file 23 kB").
 struct Sample {
     t: f64,
     rss_kb: f64,
     fds: usize,
     state: f64,
+    /// Anonymous memory (heap, driver) and mapped files (stores), kB.
+    anon_kb: f64,
+    file_kb: f64,
 }
 
 impl Sample {
@@ -141,12 +149,15 @@ impl Sample {
         let (t, rest) = rest.split_once(" s, RSS ")?;
         let (rss, rest) = rest.split_once(" kB, ")?;
         let (fds, rest) = rest.split_once(" open files, state ")?;
-        let state = rest.strip_suffix(" B")?;
+        let (state, rest) = rest.split_once(" B, anon ")?;
+        let (anon, file) = rest.strip_suffix(" kB")?.split_once(" kB, file ")?;
         Some(Self {
             t: t.parse().ok()?,
             rss_kb: rss.parse().ok()?,
             fds: fds.parse().ok()?,
             state: state.parse().ok()?,
+            anon_kb: anon.parse().ok()?,
+            file_kb: file.parse().ok()?,
         })
     }
 }
@@ -185,7 +196,7 @@ fn plot(series: &[Sample], hours: f64, speed: f64) -> anyhow::Result<()> {
     root.present()?;
     drop(root);
     let png = svg.with_extension("png");
-    kiosk::media::svg_to_rgba(&std::fs::read(&svg)?).map_err(anyhow::Error::msg)?.save(&png)?;
+    kiosk_content::media::svg_to_rgba(&std::fs::read(&svg)?).map_err(anyhow::Error::msg)?.save(&png)?;
     println!("plot: {} ({})", svg.display(), png.display());
     Ok(())
 }

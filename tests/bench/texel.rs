@@ -35,7 +35,7 @@ pub fn run(
 ) -> anyhow::Result<()> {
     let glb = root.join("content/belweder/belweder-ot-1782.glb");
     let mesh = kiosk_testkit::mesh::read_glb(&glb).map_err(anyhow::Error::msg)?;
-    let front = kiosk::exhibit::model_pose(&root.join("content/belweder"))?.front;
+    let front = kiosk_content::exhibit::model_pose(&root.join("content/belweder"))?.front;
     let mesh_renderer = MeshRenderer::new(gpu, kiosk_render::OFFSCREEN_FORMAT);
     let settings = RenderSettings::default();
     let bg = srgb8(settings.background);
@@ -46,13 +46,13 @@ pub fn run(
     let mut references: Vec<image::RgbaImage> = Vec::new();
     for density in DENSITIES {
         let out = dir.path().join(format!("belweder-{density}.kstore"));
-        let mut opts = kiosk::import::ImportOptions { progress: false, ..Default::default() };
+        let mut opts = kiosk_content::import::ImportOptions { progress: false, ..Default::default() };
         opts.read.texel_density = density;
         let t0 = Instant::now();
-        let report = kiosk::import::import(&glb, &out, &opts)?;
+        let report = kiosk_content::import::import(&glb, &out, &opts)?;
         let seconds = t0.elapsed().as_secs_f64();
         let store_mb = std::fs::metadata(&out)?.len() as f64 / 1e6;
-        let store = kiosk::open_store(&out)?;
+        let store = kiosk_content::open_store(&out)?;
         let mut views = Vec::new();
         for (k, (view, cam)) in kiosk_testkit::mesh::views_from(&store, &mesh, front).into_iter().enumerate()
         {
@@ -159,7 +159,7 @@ fn plot(rows: &[Row], out_dir: &Path) -> anyhow::Result<()> {
     root.present()?;
     drop(root);
     let png = svg.with_extension("png");
-    kiosk::media::svg_to_rgba(&std::fs::read(&svg)?).map_err(anyhow::Error::msg)?.save(&png)?;
+    kiosk_content::media::svg_to_rgba(&std::fs::read(&svg)?).map_err(anyhow::Error::msg)?.save(&png)?;
     println!("plot: {} ({})", svg.display(), png.display());
     Ok(())
 }

@@ -8,7 +8,7 @@ use crate::common;
 use kiosk_core::replay::{self, ControllerKind, ExploreSettings, Trace};
 pub use kiosk_core::session::Script;
 
-pub fn run(store: &kiosk::MappedStore, script: &Script, controller: ControllerKind) -> Trace {
+pub fn run(store: &kiosk_content::MappedStore, script: &Script, controller: ControllerKind) -> Trace {
     let settings = ExploreSettings { controller, ..ExploreSettings::default() };
     replay::run(store, &script.session(), &settings)
 }

@@ -4,7 +4,7 @@
 
 use crate::common;
 use glam::DVec3;
-use kiosk::MappedStore;
+use kiosk_content::MappedStore;
 use kiosk_core::camera::Camera;
 use kiosk_render::{Gpu, RenderSettings, Renderer, SplatMode};
 use std::path::{Path, PathBuf};
@@ -49,7 +49,7 @@ fn gpu() -> &'static Mutex<(Gpu, Renderer)> {
         if log::set_logger(&LOGGER).is_ok() {
             log::set_max_level(log::LevelFilter::Error);
         }
-        let (gpu, renderer) = kiosk::snapshot::offscreen().unwrap_or_else(|e| {
+        let (gpu, renderer) = kiosk_content::snapshot::offscreen().unwrap_or_else(|e| {
             panic!("no GPU adapter: {e:#}. Run .ci/setup (installs lavapipe) — GPU tests never skip.")
         });
         Mutex::new((gpu, renderer))
@@ -64,7 +64,7 @@ fn render(
 ) -> image::RgbaImage {
     let mut g = gpu().lock().unwrap_or_else(|e| e.into_inner());
     let (gpu, renderer) = &mut *g;
-    let img = kiosk::snapshot::snapshot(gpu, renderer, store, camera, size, 1.0, settings)
+    let img = kiosk_content::snapshot::snapshot(gpu, renderer, store, camera, size, 1.0, settings)
         .unwrap_or_else(|e| panic!("{e:#}"));
     assert_no_validation_errors();
     img
@@ -422,13 +422,13 @@ fn the_textured_mesh_reference_and_the_splats_show_the_same_texture() {
     assert!(mesh.texture.is_some() && mesh.uvs.len() == mesh.positions.len());
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("box.kstore");
-    kiosk::import::import(
+    kiosk_content::import::import(
         &glb,
         &out,
-        &kiosk::import::ImportOptions { progress: false, ..Default::default() },
+        &kiosk_content::import::ImportOptions { progress: false, ..Default::default() },
     )
     .expect("import");
-    let store = kiosk::open_store(&out).expect("open");
+    let store = kiosk_content::open_store(&out).expect("open");
     let cam = {
         let c = store.to_model(store.bbox().center());
         let d = f64::from(store.bbox().diagonal());

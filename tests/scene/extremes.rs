@@ -236,7 +236,7 @@ fn out_of_core_build_matches_the_in_memory_build() {
         estimated.len(),
         pts.len()
     );
-    let leaf_samples = |store: &kiosk::MappedStore| {
+    let leaf_samples = |store: &kiosk_content::MappedStore| {
         let mut v: Vec<([u32; 3], u32)> = (0..store.nodes().len() as u32)
             .filter(|&id| store.node(id).is_leaf())
             .flat_map(|id| {

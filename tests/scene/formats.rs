@@ -96,8 +96,9 @@ fn a_las_cloud_a_million_metres_away_keeps_its_millimetres() {
     }
     let store = |scan: &Path, out: &str| {
         let out = dir.path().join(out);
-        kiosk::import::import(scan, &out, &kiosk::import::ImportOptions::default()).expect("import");
-        kiosk::open_store(&out).expect("store")
+        kiosk_content::import::import(scan, &out, &kiosk_content::import::ImportOptions::default())
+            .expect("import");
+        kiosk_content::open_store(&out).expect("store")
     };
     let (sa, sb) = (store(&far, "far.kstore"), store(&near, "near.kstore"));
     assert!((sa.origin() - sb.origin() - glam::DVec3::from_array(shift)).abs().max_element() < 1.0e-3);
@@ -260,10 +261,10 @@ fn a_textured_box_takes_its_colours_from_the_texture_in_every_format() {
 fn texture_colour_arrives_in_the_store() {
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("box.kstore");
-    let mut opts = kiosk::import::ImportOptions::default();
+    let mut opts = kiosk_content::import::ImportOptions::default();
     opts.read.texel_density = 0.25;
-    kiosk::import::import(&data("box-textured/BoxTextured.glb"), &out, &opts).expect("import");
-    let store = kiosk::open_store(&out).expect("store");
+    kiosk_content::import::import(&data("box-textured/BoxTextured.glb"), &out, &opts).expect("import");
+    let store = kiosk_content::open_store(&out).expect("store");
     let tris = box_triangles();
     let img = image::open(data("box-textured/Cesium Logo Flat.png")).expect("png").to_rgba8();
     let (mut leaves, mut off) = (0usize, 0usize);

@@ -3,7 +3,7 @@
 
 use crate::common::{self, data, small_nodes};
 use glam::{DVec3, Vec3};
-use kiosk::MappedStore;
+use kiosk_content::MappedStore;
 use kiosk_core::scene::query::Level;
 use kiosk_core::{Cut, CutParams, QueryParams, ViewParams};
 use kiosk_import::{BuildParams, ply};

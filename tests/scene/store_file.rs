@@ -15,11 +15,11 @@ fn store_bytes() -> Vec<u8> {
     std::fs::read(&out).expect("read back")
 }
 
-fn open(bytes: &[u8]) -> anyhow::Result<kiosk::MappedStore> {
+fn open(bytes: &[u8]) -> anyhow::Result<kiosk_content::MappedStore> {
     let dir = tempfile::tempdir()?;
     let p = dir.path().join("x.kstore");
     std::fs::write(&p, bytes)?;
-    kiosk::open_store(&p)
+    kiosk_content::open_store(&p)
 }
 
 fn store_error(bytes: &[u8]) -> StoreError {
@@ -98,7 +98,7 @@ fn import_takes_a_spacing_stride_and_refuses_one_out_of_range() {
     for stride in ["1", "8"] {
         let o = import(stride, &format!("s{stride}.kstore"));
         assert!(o.status.success(), "stride {stride}: {}", String::from_utf8_lossy(&o.stderr));
-        let store = kiosk::open_store(&dir.path().join(format!("s{stride}.kstore"))).expect("store");
+        let store = kiosk_content::open_store(&dir.path().join(format!("s{stride}.kstore"))).expect("store");
         let leaves: Vec<f32> = (0..store.nodes().len() as u32)
             .filter(|&id| store.node(id).is_leaf())
             .flat_map(|id| store.splats(id).iter().map(|s| s.radius).collect::<Vec<_>>())
@@ -190,7 +190,7 @@ fn crafted_values_with_valid_checksums_are_refused() {
     let dir = tempfile::tempdir().expect("tmp");
     let path = dir.path().join("moved.kstore");
     std::fs::write(&path, &b).expect("write");
-    let crafted = kiosk::open_store(&path).expect("the index is untouched");
+    let crafted = kiosk_content::open_store(&path).expect("the index is untouched");
     let mut h = crc32fast::Hasher::new();
     h.update(bytemuck::cast_slice(crafted.splats(leaf)));
     h.update(bytemuck::cast_slice(crafted.boxes(leaf)));
@@ -203,7 +203,7 @@ fn crafted_values_with_valid_checksums_are_refused() {
     let index_crc = crc(&b[header.index_offset as usize..header.index_offset as usize + index_len]);
     reseal(&mut b, StoreHeader { index_crc, ..header });
     std::fs::write(&path, &b).expect("write");
-    let crafted = kiosk::open_store(&path).expect("opens: only verification reads node data");
+    let crafted = kiosk_content::open_store(&path).expect("opens: only verification reads node data");
     let e = crafted.verify_node(leaf).expect_err("verify checks values");
     assert!(e.to_string().contains("outside the node's bounding box"), "{e}");
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_kiosk"))

@@ -4,7 +4,7 @@ mod engine;
 mod sessions;
 mod visit;
 
-use kiosk::MappedStore;
+use kiosk_content::MappedStore;
 use kiosk_core::graph::InfoGraph;
 pub use kiosk_testkit::synthetic::node;
 

@@ -217,13 +217,13 @@ fn the_nefertiti_exhibit_story_loads_without_problems() {
 fn the_belweder_exhibit_is_a_coloured_scan_of_a_million_samples_with_its_story() {
     demo_exhibit_loads_and_plays("belweder");
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("content/belweder");
-    let (g, _) = kiosk::exhibit::open_graph(&dir).expect("readable").expect("a graph.xml");
+    let (g, _) = kiosk_content::exhibit::open_graph(&dir).expect("readable").expect("a graph.xml");
     // Every medium resolves inside the exhibit, as the kiosk opens it; the overlays are labelled
     // drawings (SVG text).
     for n in &g.nodes {
         let files = n.overlay.0.values().chain(n.narration.0.values()).chain(&n.thumbnail).chain(&n.roi_mask);
         for f in files {
-            kiosk::media::resolve(&dir, f).unwrap_or_else(|e| panic!("{}: {e}", n.id));
+            kiosk_content::media::resolve(&dir, f).unwrap_or_else(|e| panic!("{}: {e}", n.id));
         }
         for (lang, f) in &n.overlay.0 {
             let svg = std::fs::read_to_string(dir.join(f)).expect("overlay");
@@ -232,7 +232,7 @@ fn the_belweder_exhibit_is_a_coloured_scan_of_a_million_samples_with_its_story()
     }
     // The glTF is imported at texel density: over a million samples, each with its texture's
     // colour (alpha 255), and the colours are those of a wooden cabinet, not a grey default.
-    let store = kiosk::exhibit::open_model(&dir).expect("model");
+    let store = kiosk_content::exhibit::open_model(&dir).expect("model");
     let h = store.header();
     assert!(h.leaf_point_count >= 1_000_000, "{} samples", h.leaf_point_count);
     let (mut coloured, mut warm, mut leaves) = (0u64, 0u64, 0u64);
@@ -256,7 +256,7 @@ fn the_belweder_exhibit_is_a_coloured_scan_of_a_million_samples_with_its_story()
 /// files exist), and a visitor who waits is shown the introduction first.
 fn demo_exhibit_loads_and_plays(name: &str) {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("content").join(name);
-    let (g, problems) = kiosk::exhibit::open_graph(&dir).expect("readable").expect("a graph.xml");
+    let (g, problems) = kiosk_content::exhibit::open_graph(&dir).expect("readable").expect("a graph.xml");
     assert!(problems.is_empty(), "{name}: {problems:?}");
     assert!(g.nodes.len() >= 8, "{name}: {} nodes", g.nodes.len());
     for w in [1.0, 0.8, 0.2] {
@@ -282,7 +282,7 @@ fn demo_exhibit_loads_and_plays(name: &str) {
     }
     assert!(dir.join("CREDITS.md").is_file(), "{name}: no CREDITS.md");
     // The story plays: a visitor who waits is shown the introduction first.
-    let store = kiosk::exhibit::open_model(&dir).expect("model");
+    let store = kiosk_content::exhibit::open_model(&dir).expect("model");
     let t = replay::run_story(
         &store,
         &Script::new().wait(40.0).cancel(99).session(),

@@ -2,7 +2,7 @@
 //! same path the windows take): gallery swipes and taps, buttons, the attract loop and the reset,
 //! with an accelerated (simulated) clock.
 
-use kiosk::MappedStore;
+use kiosk_content::MappedStore;
 use kiosk_core::gesture::TouchKind;
 use kiosk_core::graph::InfoGraph;
 use kiosk_core::kiosk::{KioskEffect, KioskFrame, KioskSettings, Mode, ModelRef, run_session};
@@ -19,8 +19,9 @@ fn demo() -> Demo {
         .iter()
         .map(|name| {
             let dir = root.join(name);
-            let store = kiosk::exhibit::open_model(&dir).expect("model");
-            let (graph, problems) = kiosk::exhibit::open_graph(&dir).expect("graph").expect("graph.xml");
+            let store = kiosk_content::exhibit::open_model(&dir).expect("model");
+            let (graph, problems) =
+                kiosk_content::exhibit::open_graph(&dir).expect("graph").expect("graph.xml");
             assert!(problems.is_empty(), "{problems:?}");
             (store, graph)
         })

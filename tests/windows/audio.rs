@@ -1,7 +1,7 @@
 //! Narration decodes: every narration file that an exhibit's graph names is decoded by the same
 //! path the kiosk and the authoring tool play it through (kira with symphonia's codecs).
 
-use kiosk::windows::audio::{Narrator, decode};
+use kiosk_content::audio::{Narrator, decode};
 
 /// Every narration of every demo exhibit (each directory of `content/`), as its graph names them.
 fn narrations() -> Vec<std::path::PathBuf> {
@@ -14,7 +14,8 @@ fn narrations() -> Vec<std::path::PathBuf> {
     dirs.sort();
     assert!(dirs.len() >= 3, "the demo exhibits: {dirs:?}");
     for dir in dirs {
-        let (graph, problems) = kiosk::exhibit::open_graph(&dir).expect("read graph.xml").expect("a graph");
+        let (graph, problems) =
+            kiosk_content::exhibit::open_graph(&dir).expect("read graph.xml").expect("a graph");
         assert!(problems.is_empty(), "{}: {problems:?}", dir.display());
         for node in &graph.nodes {
             files.extend(node.narration.0.values().map(|rel| dir.join(rel)));

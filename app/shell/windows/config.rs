@@ -84,7 +84,7 @@ pub struct Config {
     pub seed: u64,
     /// Pixel tolerance of the cut (larger = faster, coarser).
     pub tolerance_px: f32,
-    /// Where the visit statistics and log go (default: [`crate::stats::state_dir`]); relative
+    /// Where the visit statistics and log go (default: [`kiosk_content::stats::state_dir`]); relative
     /// to the config file.
     pub state_dir: Option<PathBuf>,
     /// Whether and how popularity adjusts the nodes' importance.
@@ -205,9 +205,9 @@ impl Config {
         self.real_scale.as_ref().map_or(self.fov_deg.to_radians(), RealScale::fov_y)
     }
 
-    /// The state directory: the configured one, else [`crate::stats::state_dir`].
+    /// The state directory: the configured one, else [`kiosk_content::stats::state_dir`].
     pub fn state_dir(&self) -> PathBuf {
-        self.state_dir.clone().unwrap_or_else(crate::stats::state_dir)
+        self.state_dir.clone().unwrap_or_else(kiosk_content::stats::state_dir)
     }
 
     /// The exhibit directories in gallery order.

@@ -92,10 +92,12 @@ impl Probes {
         if let Some((warmup, warm, state)) = &mut self.soak {
             if steps.is_multiple_of((300.0 / dt).round() as u64) {
                 println!(
-                    "soak: t = {t:.0} s, RSS {} kB, {} open files, state {} B",
+                    "soak: t = {t:.0} s, RSS {} kB, {} open files, state {} B, anon {} kB, file {} kB",
                     rss_kb().unwrap_or(0),
                     open_files().unwrap_or(0),
-                    dir_bytes(state)
+                    dir_bytes(state),
+                    status_kb("RssAnon:").unwrap_or(0),
+                    status_kb("RssFile:").unwrap_or(0)
                 );
             }
             if warm.is_none() && t >= *warmup {
@@ -150,6 +152,12 @@ fn dir_bytes(dir: &std::path::Path) -> u64 {
 
 /// The process's resident memory (Linux), in kB.
 pub(super) fn rss_kb() -> Option<u64> {
+    status_kb("VmRSS:")
+}
+
+/// A kB figure of /proc/self/status (`VmRSS:`; `RssAnon:` is the heap and the driver's memory,
+/// `RssFile:` the pages of memory-mapped files such as the stores).
+fn status_kb(key: &str) -> Option<u64> {
     let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    s.lines().find_map(|l| l.strip_prefix("VmRSS:")).and_then(|v| v.split_whitespace().next()?.parse().ok())
+    s.lines().find_map(|l| l.strip_prefix(key)).and_then(|v| v.split_whitespace().next()?.parse().ok())
 }

@@ -10,16 +10,16 @@
 //! The same touch events that drive the windows are what `--record` writes and what `--session`
 //! plays back, so a recorded visit replays through the real windows, and through `kiosk replay`.
 
-pub mod audio;
 pub mod config;
 mod draw;
 mod drive;
 mod paint;
 mod surface;
 
-use crate::MappedStore;
 use anyhow::Context as _;
 use config::Config;
+use kiosk_content::MappedStore;
+use kiosk_content::snapshot::{lit, node_light, start_light};
 use kiosk_core::camera::{Camera, GoTo, SceneRef};
 use kiosk_core::gesture::{TouchEvent, TouchKind};
 use kiosk_core::graph::InfoGraph;
@@ -120,14 +120,14 @@ impl Exhibit {
 pub fn load_exhibits(config: &Config) -> anyhow::Result<Vec<Exhibit>> {
     let mut out = Vec::new();
     for dir in config.exhibit_dirs()? {
-        let store = match crate::exhibit::open_model(&dir) {
+        let store = match kiosk_content::exhibit::open_model(&dir) {
             Ok(s) => s,
             Err(e) => {
                 tracing::error!("exhibit {}: {e:#}; left out of the gallery", dir.display());
                 continue;
             }
         };
-        let graph = match crate::exhibit::open_graph(&dir) {
+        let graph = match kiosk_content::exhibit::open_graph(&dir) {
             Ok(Some((g, problems))) => {
                 for p in problems {
                     tracing::warn!("{}: {p}", dir.join("graph.xml").display());
@@ -140,11 +140,11 @@ pub fn load_exhibits(config: &Config) -> anyhow::Result<Vec<Exhibit>> {
                 None
             }
         };
-        let pose = match crate::exhibit::model_pose(&dir) {
+        let pose = match kiosk_content::exhibit::model_pose(&dir) {
             Ok(pose) => pose,
             Err(e) => {
                 tracing::error!("{e:#}; the model is shown with +Y up");
-                crate::exhibit::ModelPose::default()
+                kiosk_content::exhibit::ModelPose::default()
             }
         };
         tracing::info!("exhibit {}: {} samples", dir.display(), store.header().leaf_point_count);
@@ -212,7 +212,7 @@ struct Running {
     inset: Canvas,
     inset_id: egui::TextureId,
     kiosk: Kiosk,
-    narrator: audio::Narrator,
+    narrator: kiosk_content::audio::Narrator,
     start: Instant,
     /// Kiosk time of the last 60 Hz step.
     sim_t: f64,
@@ -322,14 +322,17 @@ impl App {
         let mut kiosk = Kiosk::new(settings, self.exhibits.len(), 0.0);
         let state_dir = cfg.state_dir();
         for (i, ex) in self.exhibits.iter().enumerate() {
-            let name = crate::stats::exhibit_name(&ex.dir);
-            kiosk.set_stats(i, crate::stats::load_stats(&crate::stats::stats_path(&state_dir, &name)));
+            let name = kiosk_content::stats::exhibit_name(&ex.dir);
+            kiosk.set_stats(
+                i,
+                kiosk_content::stats::load_stats(&kiosk_content::stats::stats_path(&state_dir, &name)),
+            );
         }
         tracing::info!("visit statistics in {}", state_dir.display());
         let wall_origin = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0.0, |d| d.as_secs_f64());
-        let narrator = audio::Narrator::new(cfg.volume, self.opts.silent);
+        let narrator = kiosk_content::audio::Narrator::new(cfg.volume, self.opts.silent);
         let record = match &self.opts.record {
             Some(p) => {
                 let f = std::fs::File::create(p).with_context(|| format!("cannot create {}", p.display()))?;
@@ -586,13 +589,17 @@ impl Running {
             v.wall_start = Some(self.wall_origin + v.start / self.speed);
             v.wall_end = Some(self.wall_origin + v.end / self.speed);
             for m in &mut v.models {
-                m.exhibit =
-                    exhibits.get(m.model).map(|e| crate::stats::exhibit_name(&e.dir)).unwrap_or_default();
+                m.exhibit = exhibits
+                    .get(m.model)
+                    .map(|e| kiosk_content::stats::exhibit_name(&e.dir))
+                    .unwrap_or_default();
                 touched.insert(m.model);
             }
-            if let Err(e) =
-                crate::stats::append_visit(&self.state_dir, &v, crate::stats::LogLimits::default())
-            {
+            if let Err(e) = kiosk_content::stats::append_visit(
+                &self.state_dir,
+                &v,
+                kiosk_content::stats::LogLimits::default(),
+            ) {
                 self.report("visit log", &format!("{e:#}"));
             }
         }
@@ -604,8 +611,11 @@ impl Running {
             if stats.visits == 0 && stats.nodes.is_empty() {
                 continue;
             }
-            let path = crate::stats::stats_path(&self.state_dir, &crate::stats::exhibit_name(&ex.dir));
-            if let Err(e) = crate::stats::save_stats(&path, stats) {
+            let path = kiosk_content::stats::stats_path(
+                &self.state_dir,
+                &kiosk_content::stats::exhibit_name(&ex.dir),
+            );
+            if let Err(e) = kiosk_content::stats::save_stats(&path, stats) {
                 self.report("statistics", &format!("{e:#}"));
             }
         }
@@ -898,25 +908,6 @@ impl Running {
     }
 }
 
-/// The renderer's settings with a light of the core.
-pub fn lit(settings: RenderSettings, light: Light) -> RenderSettings {
-    RenderSettings { light_dir: light.dir.as_vec3(), light_mix: light.mix as f32, ..settings }
-}
-
-/// The light a visit starts with, given its start view (`initial_camera`): the start light of
-/// [`kiosk_core::light`], the headlight dominating.
-pub fn start_light(start_view: &Camera) -> Light {
-    Light { dir: kiosk_core::light::start_dir(start_view), mix: kiosk_core::light::DEFAULT_MIX }
-}
-
-/// The light of a node's view: its stored light (the user light dominating), else `otherwise`.
-pub fn node_light(n: &kiosk_core::graph::Node, otherwise: Light) -> Light {
-    match n.light {
-        Some(dir) => Light { dir, mix: kiosk_core::light::ACTIVE_MIX },
-        None => otherwise,
-    }
-}
-
 /// Logs an error once (a kiosk draws 60 frames a second).
 fn report_once(reported: &mut HashSet<String>, what: &str, e: &dyn std::fmt::Display) {
     if reported.insert(format!("{what}: {e}")) {
@@ -924,11 +915,11 @@ fn report_once(reported: &mut HashSet<String>, what: &str, e: &dyn std::fmt::Dis
     }
 }
 
-/// The file a graph's media path names, confined to the exhibit ([`crate::media::resolve`]). A
+/// The file a graph's media path names, confined to the exhibit ([`kiosk_content::media::resolve`]). A
 /// path that cannot be used was reported with the graph's problems when it loaded (by the same
 /// check), so it is only noted here, once, at debug level; its node's other content still shows.
 fn media(reported: &mut HashSet<String>, dir: &Path, rel: &str) -> Option<PathBuf> {
-    match crate::media::resolve(dir, rel) {
+    match kiosk_content::media::resolve(dir, rel) {
         Ok(p) => Some(p),
         Err(e) => {
             if reported.insert(format!("media {}: {rel}: {e}", dir.display())) {

@@ -42,7 +42,7 @@ impl Painter {
         if let Some(t) = self.images.get(path) {
             return t.clone();
         }
-        let loaded = match crate::media::read_image(path) {
+        let loaded = match kiosk_content::media::read_image(path) {
             Ok(img) => Some(self.texture(&path.display().to_string(), &img)),
             Err(e) => {
                 tracing::warn!("image {e}; not shown");

@@ -90,7 +90,7 @@ pub struct AuthorApp {
     /// The last session preview.
     pub replayed: Option<preview::SessionPreview>,
     last_autosave: f64,
-    narrator: Option<kiosk::windows::audio::Narrator>,
+    narrator: Option<kiosk_content::audio::Narrator>,
     /// What the kiosk's visitors did with this exhibit's views (its statistics file), shown as a
     /// heat colour per view and a few figures for the selected one.
     pub visitor_stats: kiosk_core::stats::ExhibitStats,
@@ -156,7 +156,7 @@ impl AuthorApp {
             rng: rand_pcg::Pcg64::seed_from_u64(0),
             live: None,
             live_dirty: true,
-            light: kiosk::windows::start_light(&cam),
+            light: kiosk_content::snapshot::start_light(&cam),
             light_pad: None,
             selected: None,
             lang,
@@ -374,7 +374,7 @@ impl AuthorApp {
             return;
         };
         let path = self.project.dir().join(rel);
-        let narrator = self.narrator.get_or_insert_with(|| kiosk::windows::audio::Narrator::new(1.0, false));
+        let narrator = self.narrator.get_or_insert_with(|| kiosk_content::audio::Narrator::new(1.0, false));
         match narrator.play(&path) {
             Ok(()) if narrator.audible() => self.say(format!("playing {}", path.display())),
             Ok(()) => self.say(format!("{} decodes; no audio device, so it is not heard", path.display())),
@@ -510,7 +510,7 @@ impl AuthorApp {
         let cam = self.controller.camera();
         let Some(v) = cam.view_params(store, LIVE_SIZE) else { return };
         let nodes = self.cut.visible_nodes(store, &v);
-        let settings = kiosk::windows::lit(RenderSettings::default(), self.light);
+        let settings = kiosk_content::snapshot::lit(RenderSettings::default(), self.light);
         match renderer.render_image(gpu, store, &nodes, &cam, LIVE_SIZE, &settings) {
             Ok((img, _)) => {
                 let color = ColorImage::from_rgba_unmultiplied(
@@ -1035,7 +1035,7 @@ impl AuthorApp {
 /// Renders an SVG drawing (curators draw overlays in vector tools) to an RGBA image at the
 /// view's size (1280×720), fitted and centred, reading no other file.
 pub fn svg_to_png(path: &Path) -> anyhow::Result<image::RgbaImage> {
-    kiosk::media::read_image(path).map_err(anyhow::Error::msg)
+    kiosk_content::media::read_image(path).map_err(anyhow::Error::msg)
 }
 
 /// Blue (0) through purple to red (1).

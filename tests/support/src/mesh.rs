@@ -3,7 +3,7 @@
 //! fault there does not hide in the comparison.
 
 use glam::DVec3;
-use kiosk::MappedStore;
+use kiosk_content::MappedStore;
 use kiosk_core::camera::{Camera, orthonormal_up};
 use kiosk_render::reference::Mesh;
 use std::path::Path;

@@ -3,7 +3,7 @@
 //! 5-level DAG), scaled to any size.
 
 use glam::DVec3;
-use kiosk::MappedStore;
+use kiosk_content::MappedStore;
 use kiosk_core::camera::{Camera, orthonormal_up};
 use kiosk_core::graph::{Edge, InfoGraph, Node, PerLanguage};
 use rand::{Rng, SeedableRng};

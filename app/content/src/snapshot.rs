@@ -1,9 +1,11 @@
-//! `kiosk snapshot`: one frame of a model, offscreen, to a PNG.
+//! `kiosk snapshot`: one frame of a model, offscreen, to a PNG; the thumbnails and live view of
+//! the authoring tool; and the light a view is drawn in.
 
 use crate::MappedStore;
 use anyhow::Context;
 use glam::DVec3;
 use kiosk_core::camera::{Camera, orthonormal_up};
+use kiosk_core::light::Light;
 use kiosk_core::{Cut, CutParams};
 use kiosk_render::{Gpu, OFFSCREEN_FORMAT, RenderSettings, Renderer};
 
@@ -60,4 +62,23 @@ pub fn offscreen() -> anyhow::Result<(Gpu, Renderer)> {
     let renderer = Renderer::new(&gpu, OFFSCREEN_FORMAT);
     gpu.check()?;
     Ok((gpu, renderer))
+}
+
+/// The renderer's settings with a light of the core.
+pub fn lit(settings: RenderSettings, light: Light) -> RenderSettings {
+    RenderSettings { light_dir: light.dir.as_vec3(), light_mix: light.mix as f32, ..settings }
+}
+
+/// The light a visit starts with, given its start view (`initial_camera`): the start light of
+/// [`kiosk_core::light`], the headlight dominating.
+pub fn start_light(start_view: &Camera) -> Light {
+    Light { dir: kiosk_core::light::start_dir(start_view), mix: kiosk_core::light::DEFAULT_MIX }
+}
+
+/// The light of a node's view: its stored light (the user light dominating), else `otherwise`.
+pub fn node_light(n: &kiosk_core::graph::Node, otherwise: Light) -> Light {
+    match n.light {
+        Some(dir) => Light { dir, mix: kiosk_core::light::ACTIVE_MIX },
+        None => otherwise,
+    }
 }
