@@ -13,6 +13,7 @@
 pub mod config;
 mod draw;
 mod drive;
+mod heap;
 mod paint;
 mod surface;
 
@@ -178,6 +179,7 @@ pub fn kiosk_settings(config: &Config, size: (u32, u32), controller_aspect: f64,
 
 /// Runs the kiosk until the window closes (or the session ends).
 pub fn run(opts: RunOptions) -> anyhow::Result<()> {
+    heap::settle();
     let exhibits = load_exhibits(&opts.config)?;
     let event_loop = EventLoop::new().context("cannot open the display (is DISPLAY set?)")?;
     event_loop.set_control_flow(ControlFlow::Poll);

@@ -1,0 +1,42 @@
+//! The heap of a kiosk that runs for months. glibc's allocator raises its mmap threshold each
+//! time a large block is freed (up to 32 MB) and gives every thread that allocates its own arena;
+//! the renderer's large buffers, renewed at every visitor reset, and the software rasteriser's
+//! worker threads then fragment the heap, and resident memory climbs in steps: in a 24-hour soak
+//! (docs/performance.md, Soak) it grew 44 % after the warm-up. A fixed threshold of 256 kB (large
+//! blocks are mapped and go back to the system when freed) and two arenas keep it flat. Set once
+//! at the start of the windows' loop; `ISOKIOSK_HEAP=default` leaves glibc's defaults (to measure
+//! the difference side by side). Other C libraries: nothing to do.
+
+/// Applies the kiosk's heap settings (see the module's doc); returns whether they were applied.
+pub fn settle() -> bool {
+    if std::env::var_os("ISOKIOSK_HEAP").is_some_and(|v| v == "default") {
+        tracing::info!("heap: glibc's defaults (ISOKIOSK_HEAP=default)");
+        return false;
+    }
+    apply()
+}
+
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+#[expect(unsafe_code, reason = "mallopt is a C call; it only changes two of the allocator's tunables")]
+fn apply() -> bool {
+    // SAFETY: mallopt takes plain integers and may be called at any time; the allocator applies
+    // the thresholds to later allocations.
+    let threshold = unsafe { libc::mallopt(libc::M_MMAP_THRESHOLD, 256 * 1024) };
+    let arenas = unsafe { libc::mallopt(libc::M_ARENA_MAX, 2) };
+    tracing::info!("heap: mmap threshold 256 kB ({threshold}), 2 arenas ({arenas})");
+    threshold == 1 && arenas == 1
+}
+
+#[cfg(not(all(target_os = "linux", target_env = "gnu")))]
+fn apply() -> bool {
+    false
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    fn glibc_takes_the_kiosks_heap_settings() {
+        assert!(super::apply(), "mallopt refused the threshold or the arena count");
+    }
+}
