@@ -43,8 +43,12 @@ pub enum LasError {
     Corrupt(String),
 }
 
-/// Points decoded at a time.
+/// Points decoded at a time, at most.
 const CHUNK: u64 = 1 << 16;
+
+/// Bytes of point records decoded at a time, at most: the decoder fills a buffer of the records'
+/// length (up to 64 KiB by the header) times their number (up to [`CHUNK`]).
+const CHUNK_BYTES: u64 = 16 << 20;
 
 /// Reads a LAS or LAZ file into `sink`.
 pub fn read(path: &Path, sink: &mut dyn Sink) -> Result<ReadReport, LasError> {
@@ -76,18 +80,32 @@ fn check_lengths(path: &Path) -> Result<(), LasError> {
     }
     // Variable-length records: 54-byte headers and their data, between the header and the points.
     let mut at = header_size;
+    let mut laz_compressor = None;
     for i in 0..vlrs {
         let mut vh = [0u8; 54];
         f.seek(SeekFrom::Start(at))
             .and_then(|_| f.read_exact(&mut vh))
             .map_err(|_| bad(format!("record {} beyond the file", i + 1)))?;
         // reserved (2), user id (16), record id (2), length after the header (2), description (32)
-        at += 54 + u64::from(u16::from_le_bytes([vh[20], vh[21]]));
+        let len = u64::from(u16::from_le_bytes([vh[20], vh[21]]));
+        if vh[2..18].starts_with(b"laszip encoded")
+            && u16::from_le_bytes([vh[18], vh[19]]) == 22204
+            && len >= 2
+        {
+            // The LAZ record starts with its compressor: 2 and 3 are the chunked ones.
+            let mut c = [0u8; 2];
+            f.read_exact(&mut c).map_err(|_| bad(format!("record {} beyond the file", i + 1)))?;
+            laz_compressor = Some(u16::from_le_bytes(c));
+        }
+        at += 54 + len;
         if at > size {
             return Err(bad(format!("variable-length record {} ends beyond the file", i + 1)));
         }
     }
     let compressed = format & 0x80 != 0 || format & 0x40 != 0;
+    if compressed && matches!(laz_compressor, Some(2 | 3)) {
+        check_chunk_table(&mut f, offset, size)?;
+    }
     let points = if minor >= 4 && n >= 255 { u64_at(247) } else { u64::from(u32_at(107)) };
     if !compressed
         && points.checked_mul(record_len).and_then(|b| b.checked_add(offset)).is_none_or(|end| end > size)
@@ -115,18 +133,59 @@ fn check_lengths(path: &Path) -> Result<(), LasError> {
     Ok(())
 }
 
+/// The smallest point record (format 0), in bytes. Each chunk of a LAZ file starts with its
+/// first point uncompressed, so a chunk takes at least this many bytes of the file.
+const MIN_RECORD: u64 = 20;
+
+/// Checks the number of chunks that a LAZ chunk table announces before the LAZ decoder reserves
+/// 16 bytes for each (a corrupted count asks for up to 64 GiB, and a failed reservation aborts
+/// the process): the chunks lie between the start of the point data and the table, at least
+/// [`MIN_RECORD`] bytes each, so the table takes less memory than the file's size. The table's
+/// place is found as the decoder finds it: the 8 bytes at the start of the point data, else the
+/// file's last 8 bytes. A table that is not in the file is left to the decoder, which reports it
+/// (or, for fixed-size chunks, reads without it).
+fn check_chunk_table(f: &mut std::fs::File, data_start: u64, size: u64) -> Result<(), LasError> {
+    use std::io::{Read, Seek, SeekFrom};
+    let mut read_at =
+        |at: u64, buf: &mut [u8]| f.seek(SeekFrom::Start(at)).and_then(|_| f.read_exact(buf)).is_ok();
+    let mut b = [0u8; 8];
+    let mut table = if read_at(data_start, &mut b) { i64::from_le_bytes(b) } else { return Ok(()) };
+    if table <= data_start as i64 {
+        if size < 8 || !read_at(size - 8, &mut b) {
+            return Ok(());
+        }
+        table = i64::from_le_bytes(b);
+    }
+    let table = table as u64;
+    let mut h = [0u8; 8];
+    if table <= data_start || !read_at(table, &mut h) {
+        return Ok(());
+    }
+    // version (4), number of chunks (4)
+    let chunks = u64::from(u32::from_le_bytes([h[4], h[5], h[6], h[7]]));
+    let room = table.saturating_sub(data_start + 8);
+    if chunks > room / MIN_RECORD {
+        return Err(LasError::Corrupt(format!(
+            "the LAZ chunk table at byte {table} counts {chunks} chunks, more than the {room} bytes \
+             of compressed points before it can hold ({MIN_RECORD} bytes at least each)"
+        )));
+    }
+    Ok(())
+}
+
 fn read_guarded(path: &Path, sink: &mut dyn Sink) -> Result<ReadReport, LasError> {
     check_lengths(path)?;
     let mut reader = ::las::Reader::from_path(path)?;
     let header = reader.header().clone();
     let has_colors = header.point_format().has_color;
     let total = header.number_of_points();
+    let batch = CHUNK.min(CHUNK_BYTES / u64::from(header.point_format().len()).max(1)).max(1);
     let mut report = ReadReport::default();
     // Where colour comes from and its range (8 or 16 bits), decided on the first chunk.
     let mut mode: Option<Colour> = None;
     let mut index = 0u64;
     while index < total {
-        let data = reader.read_points(CHUNK.min(total - index))?;
+        let data = reader.read_points(batch.min(total - index))?;
         if data.is_empty() {
             report.warnings.push(format!("the header announces {total} points, the file holds {index}"));
             break;
