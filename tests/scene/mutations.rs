@@ -222,28 +222,56 @@ fn a_laz_chunk_table_counting_too_many_chunks_is_a_clear_error() {
         }
         return;
     }
-    // simple.laz: 1 065 points in one chunk; its chunk table (at the byte that the 8 bytes at
-    // the start of the point data give) counts them. A count of 2³² − 1 chunks made the LAZ
-    // decoder reserve 64 GiB for the table, and the failed reservation aborted the process.
-    let good = std::fs::read(data("formats/simple.laz")).expect("seed file");
-    let at = |o: usize, n: usize| good[o..o + n].iter().rev().fold(0u64, |v, &b| v << 8 | u64::from(b));
-    let points_at = at(96, 4) as usize;
-    let table = at(points_at, 8) as usize;
-    assert_eq!((table, at(table + 4, 4)), (18_203, 1), "simple.laz's chunk table");
+    // simple.laz: 1 065 points in one chunk, compressed point by point; the same points written
+    // again as LAS 1.4 format 7, which the LAZ writer compresses in layers (the other chunked
+    // compressor). The chunk table of each (at the byte that the 8 bytes at the start of the
+    // point data give) counts one chunk. A count of 2³² − 1 made the LAZ decoder reserve 64 GiB
+    // for the table, and the failed reservation aborted the process.
     let dir = tempfile::tempdir().expect("temp dir");
-    let test = "scene::mutations::a_laz_chunk_table_counting_too_many_chunks_is_a_clear_error";
-    for (count, chunks) in [(u32::MAX, "4294967295 chunks"), (1 << 20, "1048576 chunks")] {
-        let mut b = good.clone();
-        b[table + 4..table + 8].copy_from_slice(&count.to_le_bytes());
-        let path = dir.path().join(format!("chunks-{count}.laz"));
-        std::fs::write(&path, &b).expect("write");
-        let got = read_in_child(test, VAR, &path);
-        assert!(
-            got.starts_with("error:") && got.contains("chunk table at byte 18203") && got.contains(chunks),
-            "{count} chunks: {got}"
-        );
+    let simple = std::fs::read(data("formats/simple.laz")).expect("seed file");
+    let layered = dir.path().join("layered.laz");
+    {
+        let mut reader = las::Reader::from_path(data("formats/simple.laz")).expect("read");
+        let mut header = las::Builder::from((1, 4));
+        header.point_format = las::point::Format::new(7).expect("format 7");
+        header.point_format.is_compressed = true;
+        let mut w = las::Writer::from_path(&layered, header.into_header().expect("header")).expect("writer");
+        for p in reader.read_all().expect("points").points() {
+            w.write_point(p.expect("point")).expect("write");
+        }
+        w.close().expect("close");
     }
-    // The same file unchanged still loads, through the same check.
-    let got = read_in_child(test, VAR, &data("formats/simple.laz"));
-    assert_eq!(got, "loaded 1065 points");
+    let layered = std::fs::read(&layered).expect("written");
+    let test = "scene::mutations::a_laz_chunk_table_counting_too_many_chunks_is_a_clear_error";
+    for (name, good, compressor) in [("simple.laz", simple, 2), ("layered.laz", layered, 3)] {
+        let at = |o: usize, n: usize| good[o..o + n].iter().rev().fold(0u64, |v, &b| v << 8 | u64::from(b));
+        let vlr = good.windows(14).position(|w| w == b"laszip encoded").expect("the LAZ record");
+        assert_eq!(at(vlr + 52, 2), compressor, "{name}: its compressor");
+        let table = at(at(96, 4) as usize, 8) as usize;
+        assert_eq!(at(table + 4, 4), 1, "{name}: one chunk");
+        for (count, chunks) in [(u32::MAX, "4294967295 chunks"), (1 << 20, "1048576 chunks")] {
+            let mut b = good.clone();
+            b[table + 4..table + 8].copy_from_slice(&count.to_le_bytes());
+            let path = dir.path().join(format!("{count}-{name}"));
+            std::fs::write(&path, &b).expect("write");
+            let got = read_in_child(test, VAR, &path);
+            let place = format!("chunk table at byte {table}");
+            assert!(
+                got.starts_with("error:") && got.contains(&place) && got.contains(chunks),
+                "{name}: {got}"
+            );
+        }
+        // The file unchanged still loads, through the same check.
+        let path = dir.path().join(name);
+        std::fs::write(&path, &good).expect("write");
+        assert_eq!(read_in_child(test, VAR, &path), "loaded 1065 points", "{name}");
+    }
+    // Found by fuzzing: the same count in a file whose header size (256) is smaller than LAS
+    // 1.4's header, so that the `las` crate finds its records (and its LAZ record) elsewhere
+    // than the header's size says.
+    let got = read_in_child(test, VAR, &data("fuzz/laz-chunk-count-1.laz"));
+    assert!(
+        got.starts_with("error:") && got.contains("chunk table at byte 29070 counts 2949520967 chunks"),
+        "{got}"
+    );
 }

@@ -80,30 +80,19 @@ fn check_lengths(path: &Path) -> Result<(), LasError> {
     }
     // Variable-length records: 54-byte headers and their data, between the header and the points.
     let mut at = header_size;
-    let mut laz_compressor = None;
     for i in 0..vlrs {
         let mut vh = [0u8; 54];
         f.seek(SeekFrom::Start(at))
             .and_then(|_| f.read_exact(&mut vh))
             .map_err(|_| bad(format!("record {} beyond the file", i + 1)))?;
         // reserved (2), user id (16), record id (2), length after the header (2), description (32)
-        let len = u64::from(u16::from_le_bytes([vh[20], vh[21]]));
-        if vh[2..18].starts_with(b"laszip encoded")
-            && u16::from_le_bytes([vh[18], vh[19]]) == 22204
-            && len >= 2
-        {
-            // The LAZ record starts with its compressor: 2 and 3 are the chunked ones.
-            let mut c = [0u8; 2];
-            f.read_exact(&mut c).map_err(|_| bad(format!("record {} beyond the file", i + 1)))?;
-            laz_compressor = Some(u16::from_le_bytes(c));
-        }
-        at += 54 + len;
+        at += 54 + u64::from(u16::from_le_bytes([vh[20], vh[21]]));
         if at > size {
             return Err(bad(format!("variable-length record {} ends beyond the file", i + 1)));
         }
     }
     let compressed = format & 0x80 != 0 || format & 0x40 != 0;
-    if compressed && matches!(laz_compressor, Some(2 | 3)) {
+    if compressed {
         check_chunk_table(&mut f, offset, size)?;
     }
     let points = if minor >= 4 && n >= 255 { u64_at(247) } else { u64::from(u32_at(107)) };
@@ -140,12 +129,21 @@ const MIN_RECORD: u64 = 20;
 /// Checks the number of chunks that a LAZ chunk table announces before the LAZ decoder reserves
 /// 16 bytes for each (a corrupted count asks for up to 64 GiB, and a failed reservation aborts
 /// the process): the chunks lie between the start of the point data and the table, at least
-/// [`MIN_RECORD`] bytes each, so the table takes less memory than the file's size. The table's
-/// place is found as the decoder finds it: the 8 bytes at the start of the point data, else the
-/// file's last 8 bytes. A table that is not in the file is left to the decoder, which reports it
-/// (or, for fixed-size chunks, reads without it).
+/// [`MIN_RECORD`] bytes each, so the table takes less memory than the file's size. Whether the
+/// file has a table is read from its LAZ record as the `las` crate finds it (its own walk of the
+/// records: where it starts them need not be where the header's size says); the table's place
+/// as the decoder finds it: the 8 bytes at the start of the point data, else the file's last 8
+/// bytes. A table that is not in the file is left to the decoder, which reports it (or, for
+/// fixed-size chunks, reads without it).
 fn check_chunk_table(f: &mut std::fs::File, data_start: u64, size: u64) -> Result<(), LasError> {
     use std::io::{Read, Seek, SeekFrom};
+    f.seek(SeekFrom::Start(0)).map_err(|e| LasError::Las(e.into()))?;
+    let header = ::las::Header::new(std::io::BufReader::new(&mut *f))?;
+    let laz = header.vlrs().iter().find(|v| v.user_id == "laszip encoded" && v.record_id == 22204);
+    // Its first two bytes: the compressor, 2 and 3 being the chunked ones (1 has no table).
+    if !laz.is_some_and(|v| matches!(v.data.get(..2), Some([2 | 3, 0]))) {
+        return Ok(());
+    }
     let mut read_at =
         |at: u64, buf: &mut [u8]| f.seek(SeekFrom::Start(at)).and_then(|_| f.read_exact(buf)).is_ok();
     let mut b = [0u8; 8];
