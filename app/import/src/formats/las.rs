@@ -91,6 +91,13 @@ fn check_lengths(path: &Path) -> Result<(), LasError> {
             return Err(bad(format!("variable-length record {} ends beyond the file", i + 1)));
         }
     }
+    // The `las` crate computes where the points end from LAS 1.4's 64-bit count, unchecked.
+    if minor >= 4
+        && n >= 255
+        && u64_at(247).checked_mul(record_len).and_then(|b| b.checked_add(offset)).is_none()
+    {
+        return Err(bad(format!("{} points of {record_len} bytes overflow the file's offsets", u64_at(247))));
+    }
     let compressed = format & 0x80 != 0 || format & 0x40 != 0;
     if compressed {
         check_chunk_table(&mut f, offset, size)?;
