@@ -43,8 +43,12 @@ pub enum LasError {
     Corrupt(String),
 }
 
-/// Points decoded at a time.
+/// Points decoded at a time, at most.
 const CHUNK: u64 = 1 << 16;
+
+/// Bytes of point records decoded at a time, at most: the decoder fills a buffer of the records'
+/// length (up to 64 KiB by the header) times their number (up to [`CHUNK`]).
+const CHUNK_BYTES: u64 = 16 << 20;
 
 /// Reads a LAS or LAZ file into `sink`.
 pub fn read(path: &Path, sink: &mut dyn Sink) -> Result<ReadReport, LasError> {
@@ -87,7 +91,17 @@ fn check_lengths(path: &Path) -> Result<(), LasError> {
             return Err(bad(format!("variable-length record {} ends beyond the file", i + 1)));
         }
     }
+    // The `las` crate computes where the points end from LAS 1.4's 64-bit count, unchecked.
+    if minor >= 4
+        && n >= 255
+        && u64_at(247).checked_mul(record_len).and_then(|b| b.checked_add(offset)).is_none()
+    {
+        return Err(bad(format!("{} points of {record_len} bytes overflow the file's offsets", u64_at(247))));
+    }
     let compressed = format & 0x80 != 0 || format & 0x40 != 0;
+    if compressed {
+        check_chunk_table(&mut f, offset, size)?;
+    }
     let points = if minor >= 4 && n >= 255 { u64_at(247) } else { u64::from(u32_at(107)) };
     if !compressed
         && points.checked_mul(record_len).and_then(|b| b.checked_add(offset)).is_none_or(|end| end > size)
@@ -115,18 +129,68 @@ fn check_lengths(path: &Path) -> Result<(), LasError> {
     Ok(())
 }
 
+/// The smallest point record (format 0), in bytes. Each chunk of a LAZ file starts with its
+/// first point uncompressed, so a chunk takes at least this many bytes of the file.
+const MIN_RECORD: u64 = 20;
+
+/// Checks the number of chunks that a LAZ chunk table announces before the LAZ decoder reserves
+/// 16 bytes for each (a corrupted count asks for up to 64 GiB, and a failed reservation aborts
+/// the process): the chunks lie between the start of the point data and the table, at least
+/// [`MIN_RECORD`] bytes each, so the table takes less memory than the file's size. Whether the
+/// file has a table is read from its LAZ record as the `las` crate finds it (its own walk of the
+/// records: where it starts them need not be where the header's size says); the table's place
+/// as the decoder finds it: the 8 bytes at the start of the point data, else the file's last 8
+/// bytes. A table that is not in the file is left to the decoder, which reports it (or, for
+/// fixed-size chunks, reads without it).
+fn check_chunk_table(f: &mut std::fs::File, data_start: u64, size: u64) -> Result<(), LasError> {
+    use std::io::{Read, Seek, SeekFrom};
+    f.seek(SeekFrom::Start(0)).map_err(|e| LasError::Las(e.into()))?;
+    let header = ::las::Header::new(std::io::BufReader::new(&mut *f))?;
+    let laz = header.vlrs().iter().find(|v| v.user_id == "laszip encoded" && v.record_id == 22204);
+    // Its first two bytes: the compressor, 2 and 3 being the chunked ones (1 has no table).
+    if !laz.is_some_and(|v| matches!(v.data.get(..2), Some([2 | 3, 0]))) {
+        return Ok(());
+    }
+    let mut read_at =
+        |at: u64, buf: &mut [u8]| f.seek(SeekFrom::Start(at)).and_then(|_| f.read_exact(buf)).is_ok();
+    let mut b = [0u8; 8];
+    let mut table = if read_at(data_start, &mut b) { i64::from_le_bytes(b) } else { return Ok(()) };
+    if table <= data_start as i64 {
+        if size < 8 || !read_at(size - 8, &mut b) {
+            return Ok(());
+        }
+        table = i64::from_le_bytes(b);
+    }
+    let table = table as u64;
+    let mut h = [0u8; 8];
+    if table <= data_start || !read_at(table, &mut h) {
+        return Ok(());
+    }
+    // version (4), number of chunks (4)
+    let chunks = u64::from(u32::from_le_bytes([h[4], h[5], h[6], h[7]]));
+    let room = table.saturating_sub(data_start + 8);
+    if chunks > room / MIN_RECORD {
+        return Err(LasError::Corrupt(format!(
+            "the LAZ chunk table at byte {table} counts {chunks} chunks, more than the {room} bytes \
+             of compressed points before it can hold ({MIN_RECORD} bytes at least each)"
+        )));
+    }
+    Ok(())
+}
+
 fn read_guarded(path: &Path, sink: &mut dyn Sink) -> Result<ReadReport, LasError> {
     check_lengths(path)?;
     let mut reader = ::las::Reader::from_path(path)?;
     let header = reader.header().clone();
     let has_colors = header.point_format().has_color;
     let total = header.number_of_points();
+    let batch = CHUNK.min(CHUNK_BYTES / u64::from(header.point_format().len()).max(1)).max(1);
     let mut report = ReadReport::default();
     // Where colour comes from and its range (8 or 16 bits), decided on the first chunk.
     let mut mode: Option<Colour> = None;
     let mut index = 0u64;
     while index < total {
-        let data = reader.read_points(CHUNK.min(total - index))?;
+        let data = reader.read_points(batch.min(total - index))?;
         if data.is_empty() {
             report.warnings.push(format!("the header announces {total} points, the file holds {index}"));
             break;
