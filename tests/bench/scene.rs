@@ -187,7 +187,7 @@ fn textured_reader() -> anyhow::Result<()> {
         for _ in 0..3 {
             n = 0;
             let start = Instant::now();
-            let mut count = |_: InputPoint| -> Result<(), String> {
+            let mut count = |_: InputPoint| -> Result<(), std::convert::Infallible> {
                 n += 1;
                 Ok(())
             };

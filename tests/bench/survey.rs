@@ -157,7 +157,7 @@ fn write_ply(pts: &[Point], path: &Path) -> anyhow::Result<()> {
 /// The importer's reader of `path` into a sink that counts: the points.
 fn reader(path: &Path) -> anyhow::Result<u64> {
     let mut n = 0u64;
-    let mut count = |_: InputPoint| -> Result<(), String> {
+    let mut count = |_: InputPoint| -> Result<(), std::convert::Infallible> {
         n += 1;
         Ok(())
     };

@@ -9,9 +9,10 @@ use crate::source::{InputPoint, ReadReport, Sink};
 use glam::{DVec3, Vec3};
 use std::path::Path;
 
-/// Why a LAS or LAZ file cannot be read.
+/// Why a LAS or LAZ file cannot be read: the reader's own errors, or `E`, the error of the
+/// consumer of the points that stopped the reading.
 #[derive(Debug, thiserror::Error)]
-pub enum LasError {
+pub enum LasError<E = std::convert::Infallible> {
     /// The `las` crate's error (header, VLRs, point records, LAZ chunks).
     #[error("{0}")]
     Las(#[from] ::las::Error),
@@ -27,19 +28,31 @@ pub enum LasError {
         /// Coordinates.
         z: f64,
     },
-    /// Rejected by the consumer of the points.
-    #[error("{0}")]
-    Sink(String),
+    /// Rejected by the consumer of the points, with its error.
+    #[error(transparent)]
+    Sink(E),
     /// The decoder gave up on corrupted data.
     #[error("{0}")]
     Corrupt(String),
+}
+
+impl<E> LasError<E> {
+    /// The reader's own error, or the consumer's.
+    pub(crate) fn split(self) -> Result<LasError, E> {
+        match self {
+            Self::Las(e) => Ok(LasError::Las(e)),
+            Self::NonFinite { index, x, y, z } => Ok(LasError::NonFinite { index, x, y, z }),
+            Self::Sink(e) => Err(e),
+            Self::Corrupt(msg) => Ok(LasError::Corrupt(msg)),
+        }
+    }
 }
 
 /// Points decoded at a time.
 const CHUNK: u64 = 1 << 16;
 
 /// Reads a LAS or LAZ file into `sink`.
-pub fn read(path: &Path, sink: &mut dyn Sink) -> Result<ReadReport, LasError> {
+pub fn read<E>(path: &Path, sink: &mut dyn Sink<Error = E>) -> Result<ReadReport, LasError<E>> {
     super::guarded(|| read_guarded(path, sink), LasError::Corrupt)
 }
 
@@ -47,7 +60,7 @@ pub fn read(path: &Path, sink: &mut dyn Sink) -> Result<ReadReport, LasError> {
 /// by them (a corrupted length would ask for gigabytes and abort the process): the header,
 /// the variable-length records, the point data of an uncompressed file, and the extended
 /// records of LAS 1.4.
-fn check_lengths(path: &Path) -> Result<(), LasError> {
+fn check_lengths<E>(path: &Path) -> Result<(), LasError<E>> {
     use std::io::{Read, Seek, SeekFrom};
     let bad = |why: String| LasError::Corrupt(format!("the header is inconsistent with the file: {why}"));
     let mut f = std::fs::File::open(path).map_err(|e| LasError::Las(e.into()))?;
@@ -132,7 +145,7 @@ fn laz_in_parallel(path: &Path) -> bool {
     check().unwrap_or(false)
 }
 
-fn read_guarded(path: &Path, sink: &mut dyn Sink) -> Result<ReadReport, LasError> {
+fn read_guarded<E>(path: &Path, sink: &mut dyn Sink<Error = E>) -> Result<ReadReport, LasError<E>> {
     check_lengths(path)?;
     let parallel = if laz_in_parallel(path) { ::las::LazParallelism::Yes } else { ::las::LazParallelism::No };
     let options = ::las::ReaderOptions::default().with_laz_parallelism(parallel);
@@ -183,11 +196,11 @@ fn read_guarded(path: &Path, sink: &mut dyn Sink) -> Result<ReadReport, LasError
 }
 
 /// The points of a chunk with their `colors`; `index` counts them (1-based in errors).
-fn points(
+fn points<E>(
     data: &::las::PointData,
     index: &mut u64,
     colors: impl Iterator<Item = [u8; 4]>,
-) -> Result<Vec<InputPoint>, LasError> {
+) -> Result<Vec<InputPoint>, LasError<E>> {
     let mut out = Vec::with_capacity(data.len());
     for (((x, y), z), color) in data.x().zip(data.y()).zip(data.z()).zip(colors) {
         *index += 1;
