@@ -1,5 +1,8 @@
 //! `cargo bench --bench scene [-- --points N[,N…]] [--quick] [--tradeoff-only | --textured-only]`: the scene's numbers
 //! (docs/performance.md).
+//! `-- --survey-only [--points N]`: the survey formats' readers alone, beside their decoders' bare
+//! loops, on one generated cloud written as LAS, LAZ, E57 and PLY (left in `target/bench/` for
+//! timing whole imports of each with `kiosk import`).
 //! `-- --queries-only A.kstore B.kstore …`: tables 2 and 3 only, on existing stores side by side.
 //! `-- --reference`: only the machine's reference figure (inflating the scan), printed with the
 //! tables too: the same fixed work in every run, to tell the machine's slow stretches from its fast.
@@ -27,6 +30,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 type Rng64 = rand_pcg::Pcg64;
+
+mod survey;
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -59,6 +64,16 @@ fn main() -> anyhow::Result<()> {
     let quick = args.iter().any(|a| a == "--quick");
     if args.iter().any(|a| a == "--textured-only") {
         return textured_reader();
+    }
+    if args.iter().any(|a| a == "--survey-only") {
+        let n = args
+            .iter()
+            .position(|a| a == "--points")
+            .and_then(|i| args.get(i + 1))
+            .map_or(Ok(SURVEY_POINTS), |s| s.parse())?;
+        let out_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench");
+        std::fs::create_dir_all(&out_dir)?;
+        return survey::readers(&out_dir, n);
     }
     if args.iter().any(|a| a == "--tradeoff-only") {
         let out_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench");
@@ -172,7 +187,7 @@ fn textured_reader() -> anyhow::Result<()> {
         for _ in 0..3 {
             n = 0;
             let start = Instant::now();
-            let mut count = |_: InputPoint| -> Result<(), String> {
+            let mut count = |_: InputPoint| -> Result<(), std::convert::Infallible> {
                 n += 1;
                 Ok(())
             };
@@ -185,6 +200,9 @@ fn textured_reader() -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+/// Points of the survey cloud unless `--points` says otherwise.
+const SURVEY_POINTS: u64 = 5_000_000;
 
 fn inflate_ms(scan: &Path) -> anyhow::Result<f64> {
     let mut ms: Vec<f64> = (0..5)

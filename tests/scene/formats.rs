@@ -399,6 +399,15 @@ fn broken_glb_files_found_by_fuzzing_are_clear_errors() {
 }
 
 #[test]
+fn broken_las_files_found_by_fuzzing_are_clear_errors() {
+    // Found by fuzzing: a LAS 1.4 point count whose size in bytes overflows 64 bits made the las
+    // crate's arithmetic overflow (a panic where overflow is checked, a wrapped offset elsewhere).
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz/las-point-count-1.laz");
+    let e = read_all(&path, &ReadOptions::default()).expect_err("a broken count").to_string();
+    assert!(e.contains("overflow the file's offsets") && !e.contains("decoder failed"), "{e}");
+}
+
+#[test]
 fn compressed_and_broken_gltf_files_are_clear_errors() {
     // The Draco-compressed BoxTextured (Khronos glTF-Draco variant).
     let e = read_all(&data("BoxTextured-Draco.glb"), &ReadOptions::default()).expect_err("draco").to_string();

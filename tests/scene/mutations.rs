@@ -137,9 +137,9 @@ fn broken_survey_files_never_panic_and_errors_say_something() {
     let mut rng = Rng64::seed_from_u64(20_261_204);
     let dir = tempfile::tempdir().expect("temp dir");
     let (mut loaded, mut failed) = (0, 0);
-    // LAZ is not here: its decoder (the laz crate) can be made to ask for tens of gigabytes by a
-    // corrupted chunk, which aborts the process whatever the reader does; panics it raises are
-    // turned into errors (formats::guarded), the allocation is not bounded yet.
+    // LAZ too: panics that its decoder (the laz crate) raises on corrupted points are turned into
+    // errors (formats::guarded), and the chunk counts it would reserve memory for are checked
+    // against the file first (see the test below).
     // The GLB, the glTF and the textured PLY at 1/16 sample per texel, and a sample limit: a
     // mutated texture coordinate may ask for billions of samples, which is an error to see, not
     // a long run.
@@ -147,6 +147,7 @@ fn broken_survey_files_never_panic_and_errors_say_something() {
     for seed in [
         "formats/autzen.las",
         "formats/1_4_w_evlr.las",
+        "formats/simple.laz",
         "formats/ColouredCubeDouble.e57",
         "formats/box-textured/BoxTextured.glb",
         "formats/box-textured/BoxTexturedQuantized.gltf",
@@ -183,4 +184,94 @@ fn broken_survey_files_never_panic_and_errors_say_something() {
         }
     }
     assert!(loaded > 50 && failed > 50, "loaded {loaded}, failed {failed}");
+}
+
+/// Reads `path` in a child process (this test binary, running only `test` with `var` naming
+/// the file), so that a reader that aborts the process fails the test instead of ending the
+/// whole run; returns what the child printed: `loaded N points` or `error: MESSAGE`.
+fn read_in_child(test: &str, var: &str, path: &std::path::Path) -> String {
+    let exe = std::env::current_exe().expect("the test binary");
+    let out = std::process::Command::new(exe)
+        .args([test, "--exact", "--nocapture", "--test-threads=1"])
+        .env(var, path)
+        .output()
+        .expect("run the test binary");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "reading {} ended the process ({}): {}",
+        path.display(),
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+            .lines()
+            .find(|l| l.contains("allocation") || l.contains("panicked"))
+            .unwrap_or("no message")
+    );
+    stdout.lines().find_map(|l| l.split_once("child: ")).map_or("", |(_, r)| r).to_string()
+}
+
+#[test]
+fn a_laz_chunk_table_counting_too_many_chunks_is_a_clear_error() {
+    const VAR: &str = "KIOSK_TEST_LAZ_FILE";
+    if let Some(path) = std::env::var_os(VAR) {
+        // The child: one read, its outcome printed.
+        let got = source::read_file(std::path::Path::new(&path), &ReadOptions::default(), &mut |_| Ok(()));
+        match got {
+            Ok(r) => println!("child: loaded {} points", r.points),
+            Err(e) => println!("child: error: {e}"),
+        }
+        return;
+    }
+    // simple.laz: 1 065 points in one chunk, compressed point by point; the same points written
+    // again as LAS 1.4 format 7, which the LAZ writer compresses in layers (the other chunked
+    // compressor). The chunk table of each (at the byte that the 8 bytes at the start of the
+    // point data give) counts one chunk. A count of 2³² − 1 made the LAZ decoder reserve 64 GiB
+    // for the table, and the failed reservation aborted the process.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let simple = std::fs::read(data("formats/simple.laz")).expect("seed file");
+    let layered = dir.path().join("layered.laz");
+    {
+        let mut reader = las::Reader::from_path(data("formats/simple.laz")).expect("read");
+        let mut header = las::Builder::from((1, 4));
+        header.point_format = las::point::Format::new(7).expect("format 7");
+        header.point_format.is_compressed = true;
+        let mut w = las::Writer::from_path(&layered, header.into_header().expect("header")).expect("writer");
+        for p in reader.read_all().expect("points").points() {
+            w.write_point(p.expect("point")).expect("write");
+        }
+        w.close().expect("close");
+    }
+    let layered = std::fs::read(&layered).expect("written");
+    let test = "scene::mutations::a_laz_chunk_table_counting_too_many_chunks_is_a_clear_error";
+    for (name, good, compressor) in [("simple.laz", simple, 2), ("layered.laz", layered, 3)] {
+        let at = |o: usize, n: usize| good[o..o + n].iter().rev().fold(0u64, |v, &b| v << 8 | u64::from(b));
+        let vlr = good.windows(14).position(|w| w == b"laszip encoded").expect("the LAZ record");
+        assert_eq!(at(vlr + 52, 2), compressor, "{name}: its compressor");
+        let table = at(at(96, 4) as usize, 8) as usize;
+        assert_eq!(at(table + 4, 4), 1, "{name}: one chunk");
+        for (count, chunks) in [(u32::MAX, "4294967295 chunks"), (1 << 20, "1048576 chunks")] {
+            let mut b = good.clone();
+            b[table + 4..table + 8].copy_from_slice(&count.to_le_bytes());
+            let path = dir.path().join(format!("{count}-{name}"));
+            std::fs::write(&path, &b).expect("write");
+            let got = read_in_child(test, VAR, &path);
+            let place = format!("chunk table at byte {table}");
+            assert!(
+                got.starts_with("error:") && got.contains(&place) && got.contains(chunks),
+                "{name}: {got}"
+            );
+        }
+        // The file unchanged still loads, through the same check.
+        let path = dir.path().join(name);
+        std::fs::write(&path, &good).expect("write");
+        assert_eq!(read_in_child(test, VAR, &path), "loaded 1065 points", "{name}");
+    }
+    // Found by fuzzing: the same count in a file whose header size (256) is smaller than LAS
+    // 1.4's header, so that the `las` crate finds its records (and its LAZ record) elsewhere
+    // than the header's size says.
+    let got = read_in_child(test, VAR, &data("fuzz/laz-chunk-count-1.laz"));
+    assert!(
+        got.starts_with("error:") && got.contains("chunk table at byte 29070 counts 2949520967 chunks"),
+        "{got}"
+    );
 }

@@ -85,8 +85,11 @@ pub fn import_locked(scan: &Path, lock: &OutputLock, opts: &ImportOptions) -> an
     let report = source::read_file(scan, &opts.read, &mut Feed { builder: &mut builder, pb: &pb, read: 0 })
         .map_err(|e| {
         // The readers name no command-line flag; the command adds what the user can do.
-        let skippable = e.to_string().contains("non-finite coordinate");
-        let hint = if skippable { " (--drop-invalid skips samples with non-finite coordinates)" } else { "" };
+        let hint = if e.is_non_finite() {
+            " (--drop-invalid skips samples with non-finite coordinates)"
+        } else {
+            ""
+        };
         anyhow::Error::new(e).context(format!("{}{hint}", scan.display()))
     })?;
     let staged = work.path.join("store.kstore");
@@ -213,7 +216,9 @@ struct Feed<'a> {
 }
 
 impl source::Sink for Feed<'_> {
-    fn point(&mut self, p: source::InputPoint) -> Result<(), String> {
+    type Error = kiosk_import::BuildError;
+
+    fn point(&mut self, p: source::InputPoint) -> Result<(), Self::Error> {
         self.read += 1;
         if self.read.is_multiple_of(65536) {
             self.pb.set_position(self.read);
@@ -221,7 +226,7 @@ impl source::Sink for Feed<'_> {
         source::Sink::point(self.builder, p)
     }
 
-    fn points(&mut self, points: Vec<source::InputPoint>) -> Result<(), String> {
+    fn points(&mut self, points: Vec<source::InputPoint>) -> Result<(), Self::Error> {
         self.read += points.len() as u64;
         self.pb.set_position(self.read);
         source::Sink::points(self.builder, points)

@@ -370,15 +370,7 @@ impl Builder {
             Spill::Memory(v) => {
                 v.push(p);
                 if v.len() > self.params.chunk_points {
-                    // Memory is full: from now on samples go to the cells of a kd-tree chosen on
-                    // those seen so far, fine enough that regions can be assembled from whole
-                    // subtrees of cells (cells that overflow are split again at the end).
-                    let first = std::mem::take(v);
-                    let mut reservoir = Reservoir::new(self.params.sample_size, self.params.seed);
-                    first.iter().for_each(|p| reservoir.offer(p.pos));
-                    let cell = (self.params.chunk_points / 2 / CELLS_PER_REGION).max(1);
-                    let tree = TopTree::build(&reservoir.sample, self.count, cell);
-                    self.spill = Spill::Cells(CellWriter::start(&self.tmp_dir, tree, first)?);
+                    self.start_cells()?;
                 }
             }
             Spill::Cells(w) => w.push(p)?,
@@ -386,33 +378,78 @@ impl Builder {
         Ok(())
     }
 
-    /// Adds samples as [`Builder::push`] adds them one by one. Taken over whole (no copy) when
-    /// they are the first and fit in memory: the vertices of a mesh, read before its faces are
-    /// applied.
+    /// Memory is full: from now on samples go to the cells of a kd-tree chosen on those seen so
+    /// far, fine enough that regions can be assembled from whole subtrees of cells (cells that
+    /// overflow are split again at the end).
+    fn start_cells(&mut self) -> Result<(), BuildError> {
+        let Spill::Memory(v) = &mut self.spill else {
+            return Ok(());
+        };
+        let first = std::mem::take(v);
+        let mut reservoir = Reservoir::new(self.params.sample_size, self.params.seed);
+        first.iter().for_each(|p| reservoir.offer(p.pos));
+        let cell = (self.params.chunk_points / 2 / CELLS_PER_REGION).max(1);
+        let tree = TopTree::build(&reservoir.sample, self.count, cell);
+        self.spill = Spill::Cells(CellWriter::start(&self.tmp_dir, tree, first)?);
+        Ok(())
+    }
+
+    /// Adds samples as [`Builder::push`] adds them one by one, and to the same effect (the same
+    /// store), a batch at a time. Taken over whole (no copy) when they are the first and fit in
+    /// memory: the vertices of a mesh, read before its faces are applied.
     pub fn push_all(&mut self, points: Vec<InputPoint>) -> Result<(), BuildError> {
-        match &mut self.spill {
-            Spill::Memory(v) if v.is_empty() && points.len() <= self.params.chunk_points => {
-                // Counted in and bounded on the pool (min and max are exact in any order); the
-                // first non-finite position is the error `push` would give.
-                if let Some(i) = points.par_iter().position_first(|p| !p.pos.is_finite()) {
-                    self.count += i as u64;
-                    return self.count_in(points[i].pos);
-                }
-                let (min, max) = points
-                    .par_iter()
-                    .fold(
-                        || (DVec3::INFINITY, DVec3::NEG_INFINITY),
-                        |(lo, hi), p| (lo.min(p.pos), hi.max(p.pos)),
-                    )
-                    .reduce(|| (DVec3::INFINITY, DVec3::NEG_INFINITY), |a, b| (a.0.min(b.0), a.1.max(b.1)));
-                self.count += points.len() as u64;
-                self.min = self.min.min(min);
-                self.max = self.max.max(max);
-                self.spill = Spill::Memory(points);
-                Ok(())
-            }
-            _ => points.into_iter().try_for_each(|p| self.push(p)),
+        let chunk = self.params.chunk_points;
+        if matches!(&self.spill, Spill::Memory(v) if v.is_empty()) && points.len() <= chunk {
+            self.count_all(&points)?;
+            self.spill = Spill::Memory(points);
+            return Ok(());
         }
+        let mut rest = points.as_slice();
+        while !rest.is_empty() {
+            match &mut self.spill {
+                Spill::Memory(v) => {
+                    // As many as one by one would take before memory is full (it holds at most
+                    // `chunk` here), then the cells start on the same samples.
+                    let (now, later) = rest.split_at((chunk + 1 - v.len()).min(rest.len()));
+                    if v.capacity() < chunk + 1 {
+                        // Address space only, as at the start (a first batch taken over whole
+                        // came with its own capacity).
+                        v.reserve_exact(chunk + 1 - v.len());
+                    }
+                    v.extend_from_slice(now);
+                    self.count_all(now)?;
+                    if matches!(&self.spill, Spill::Memory(v) if v.len() > chunk) {
+                        self.start_cells()?;
+                    }
+                    rest = later;
+                }
+                Spill::Cells(w) => {
+                    for &p in rest {
+                        w.push(p)?;
+                    }
+                    self.count_all(rest)?;
+                    rest = &[];
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Counts samples in and widens the bounds to them, on the pool (min and max are exact in
+    /// any order); the first non-finite position is the error [`Builder::push`] would give.
+    fn count_all(&mut self, points: &[InputPoint]) -> Result<(), BuildError> {
+        if let Some(i) = points.par_iter().position_first(|p| !p.pos.is_finite()) {
+            self.count += i as u64;
+            return self.count_in(points[i].pos);
+        }
+        let (min, max) = points
+            .par_iter()
+            .fold(|| (DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p.pos), hi.max(p.pos)))
+            .reduce(|| (DVec3::INFINITY, DVec3::NEG_INFINITY), |a, b| (a.0.min(b.0), a.1.max(b.1)));
+        self.count += points.len() as u64;
+        self.min = self.min.min(min);
+        self.max = self.max.max(max);
+        Ok(())
     }
 
     /// Counts a sample in and widens the bounds to it (its position must be finite).
@@ -1555,12 +1592,27 @@ mod tests {
                     "chunk {chunk_points}, {whole} at once"
                 );
             }
+            // In batches (as the survey readers hand them), across the point where memory is full.
+            for batch in [1, 777, 4001] {
+                let mut b = Builder::new(params, dir.path()).expect("valid settings");
+                for part in points.chunks(batch) {
+                    b.push_all(part.to_vec()).expect("pushed");
+                }
+                let path = dir.path().join("c.kstore");
+                b.finish(&path, &mut |_| {}).expect("builds");
+                assert!(
+                    std::fs::read(path).expect("store") == one_by_one,
+                    "chunk {chunk_points}, batches of {batch}"
+                );
+            }
         }
         let mut bad = points.clone();
         bad[4321].pos.y = f64::NAN;
-        // Taken over, or one by one after a first sample: the error names the sample.
-        for (before, nth) in [(0, 4322), (1, 4323)] {
-            let mut b = Builder::new(BuildParams::default(), dir.path()).expect("valid settings");
+        // Taken over, or one by one after a first sample, or in batches after memory is full:
+        // the error names the sample.
+        for (before, nth, chunk_points) in [(0, 4322, 4_000_000), (1, 4323, 4_000_000), (1, 4323, 1000)] {
+            let params = BuildParams { node_points: 64, chunk_points, ..Default::default() };
+            let mut b = Builder::new(params, dir.path()).expect("valid settings");
             points[..before].iter().for_each(|&p| b.push(p).expect("pushed"));
             let err = b.push_all(bad.clone()).expect_err("a NaN");
             assert!(err.to_string().contains(&format!("sample {nth} has a non-finite position")), "{err}");

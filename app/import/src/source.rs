@@ -81,9 +81,11 @@ impl ReadOptions {
     }
 }
 
-/// Why a scan cannot be read.
+/// Why a scan cannot be read: the readers' own errors, or `E`, the error of the consumer of the
+/// points ([`Sink::Error`]) that stopped the reading, as it gave it (a builder's I/O error stays
+/// an I/O error).
 #[derive(Debug, thiserror::Error)]
-pub enum ReadError {
+pub enum ReadError<E = std::convert::Infallible> {
     /// The PLY reader failed.
     #[error(transparent)]
     Ply(#[from] PlyError),
@@ -110,23 +112,48 @@ pub enum ReadError {
         z: f64,
     },
     /// Rejected by the consumer of the points.
-    #[error("{0}")]
-    Sink(String),
+    #[error(transparent)]
+    Sink(E),
     /// Not a format the importer reads.
     #[error(transparent)]
     Format(#[from] crate::formats::DetectError),
     /// The LAS/LAZ reader failed.
     #[error("LAS: {0}")]
-    Las(#[from] crate::formats::las::LasError),
+    Las(#[source] crate::formats::las::LasError),
     /// The E57 reader failed.
     #[error("E57: {0}")]
-    E57(#[from] crate::formats::e57::E57Error),
+    E57(#[source] crate::formats::e57::E57Error),
     /// The glTF reader failed.
     #[error("glTF: {0}")]
     Gltf(#[from] crate::formats::gltf::GltfError),
     /// A texture of the mesh cannot be used.
     #[error(transparent)]
     Texture(#[from] crate::formats::texture::TextureError),
+}
+
+impl<E> ReadError<E> {
+    /// Whether the reading stopped at a sample with a non-finite coordinate (which
+    /// [`ReadOptions::drop_invalid`] would have dropped).
+    pub fn is_non_finite(&self) -> bool {
+        use crate::formats::las::LasError;
+        match self {
+            Self::NonFinite { .. } | Self::Las(LasError::NonFinite { .. }) => true,
+            Self::Ply(PlyError::Row { msg, .. }) => msg.starts_with("non-finite coordinate"),
+            _ => false,
+        }
+    }
+}
+
+impl<E> From<crate::formats::las::LasError<E>> for ReadError<E> {
+    fn from(e: crate::formats::las::LasError<E>) -> Self {
+        e.split().map_or_else(Self::Sink, Self::Las)
+    }
+}
+
+impl<E> From<crate::formats::e57::E57Error<E>> for ReadError<E> {
+    fn from(e: crate::formats::e57::E57Error<E>) -> Self {
+        e.split().map_or_else(Self::Sink, Self::E57)
+    }
 }
 
 /// What a read produced besides the points.
@@ -147,31 +174,41 @@ pub struct ReadReport {
 }
 
 /// The consumer of read points: a closure taking them one by one, or the builder itself (which
-/// takes a mesh's vertices over whole).
+/// takes a mesh's vertices over whole, and a survey reader's batches a batch at a time).
 pub trait Sink {
+    /// Why it stops taking points: given back to the reader's caller as it is
+    /// ([`ReadError::Sink`]; an error type, for [`ReadError`] to be one).
+    type Error;
+
     /// Takes one point; an error stops the reading.
-    fn point(&mut self, p: InputPoint) -> Result<(), String>;
+    fn point(&mut self, p: InputPoint) -> Result<(), Self::Error>;
 
     /// Takes points in file order, all at once (the vertices of a mesh, once its faces are
-    /// applied); one by one unless the consumer can do better.
-    fn points(&mut self, points: Vec<InputPoint>) -> Result<(), String> {
+    /// applied; a batch of a survey file); one by one unless the consumer can do better.
+    fn points(&mut self, points: Vec<InputPoint>) -> Result<(), Self::Error> {
         points.into_iter().try_for_each(|p| self.point(p))
     }
 }
 
-impl<F: FnMut(InputPoint) -> Result<(), String>> Sink for F {
-    fn point(&mut self, p: InputPoint) -> Result<(), String> {
+/// A closure that takes every point (it cannot fail: a consumer that may stop the reading
+/// implements [`Sink`] with its own error).
+impl<F: FnMut(InputPoint) -> Result<(), std::convert::Infallible>> Sink for F {
+    type Error = std::convert::Infallible;
+
+    fn point(&mut self, p: InputPoint) -> Result<(), Self::Error> {
         self(p)
     }
 }
 
 impl Sink for crate::Builder {
-    fn point(&mut self, p: InputPoint) -> Result<(), String> {
-        self.push(p).map_err(|e| e.to_string())
+    type Error = crate::BuildError;
+
+    fn point(&mut self, p: InputPoint) -> Result<(), Self::Error> {
+        self.push(p)
     }
 
-    fn points(&mut self, points: Vec<InputPoint>) -> Result<(), String> {
-        self.push_all(points).map_err(|e| e.to_string())
+    fn points(&mut self, points: Vec<InputPoint>) -> Result<(), Self::Error> {
+        self.push_all(points)
     }
 }
 
@@ -183,7 +220,11 @@ pub fn is_obj(path: &Path) -> bool {
 
 /// Reads a scan file in any format the importer knows ([`crate::formats::detect`]: by content,
 /// gzip'd PLY and OBJ by extension).
-pub fn read_file(path: &Path, opts: &ReadOptions, sink: &mut dyn Sink) -> Result<ReadReport, ReadError> {
+pub fn read_file<E>(
+    path: &Path,
+    opts: &ReadOptions,
+    sink: &mut dyn Sink<Error = E>,
+) -> Result<ReadReport, ReadError<E>> {
     use crate::formats::{Format, detect};
     match detect(path)? {
         Format::Las => Ok(crate::formats::las::read(path, sink)?),

@@ -159,10 +159,23 @@ impl Config {
         if !(self.fov_deg > 1.0 && self.fov_deg < 170.0) {
             return Err(format!("fov_deg = {}: must be between 1 and 170", self.fov_deg));
         }
-        if let Some(r) = &self.real_scale
-            && !(r.screen_height_m > 0.0 && r.viewer_distance_m > 0.0)
-        {
-            return Err("[real_scale] screen_height_m and viewer_distance_m must be positive".into());
+        if let Some(r) = &self.real_scale {
+            let positive = |v: f64| v.is_finite() && v > 0.0;
+            if !(positive(r.screen_height_m) && positive(r.viewer_distance_m)) {
+                return Err(format!(
+                    "[real_scale] screen_height_m = {}, viewer_distance_m = {}: must be positive and finite",
+                    r.screen_height_m, r.viewer_distance_m
+                ));
+            }
+            // The same range as fov_deg: an infinite screen, or a viewer against it, would ask
+            // for a field of view of 180 degrees, which no projection shows.
+            let fov = r.fov_y().to_degrees();
+            if !(fov > 1.0 && fov < 170.0) {
+                return Err(format!(
+                    "[real_scale] a screen {} m high seen from {} m is {fov:.1} degrees: must be between 1 and 170",
+                    r.screen_height_m, r.viewer_distance_m
+                ));
+            }
         }
         if !(self.attract_after_secs > 0.0 && self.reset_after_secs >= self.attract_after_secs) {
             return Err(format!(
@@ -278,6 +291,15 @@ mod tests {
         assert!(e.contains("splats") && e.contains("blended, discs, points"), "{e}");
         let e = Config::parse("edl = -1").expect_err("edl");
         assert!(e.contains("edl = -1"), "{e}");
+        // A field of view of 180 degrees (tan(fov/2) infinite) was accepted through real_scale;
+        // the kiosk_toml fuzz target's assertion caught it.
+        for (h, d, what) in
+            [("inf", "1.0", "finite"), ("2.5", "nan", "finite"), ("10.0", "0.1", "177.7 degrees")]
+        {
+            let text = format!("[real_scale]\nscreen_height_m = {h}\nviewer_distance_m = {d}");
+            let e = Config::parse(&text).expect_err("real_scale");
+            assert!(e.contains("[real_scale]") && e.contains(what), "{text}: {e}");
+        }
     }
 
     #[test]

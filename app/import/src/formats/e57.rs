@@ -7,9 +7,10 @@ use crate::source::{InputPoint, ReadReport, Sink};
 use glam::{DVec3, Vec3};
 use std::path::Path;
 
-/// Why an E57 file cannot be read.
+/// Why an E57 file cannot be read: the reader's own errors, or `E`, the error of the consumer
+/// of the points that stopped the reading.
 #[derive(Debug, thiserror::Error)]
-pub enum E57Error {
+pub enum E57Error<E = std::convert::Infallible> {
     /// The file's structure (header, XML section, binary sections).
     #[error("{0}")]
     File(::e57::Error),
@@ -26,23 +27,36 @@ pub enum E57Error {
     /// No scan holds a valid point.
     #[error("no valid point in its {0} scan(s)")]
     Empty(usize),
-    /// Rejected by the consumer of the points.
-    #[error("{0}")]
-    Sink(String),
+    /// Rejected by the consumer of the points, with its error.
+    #[error(transparent)]
+    Sink(E),
     /// The decoder gave up on corrupted data.
     #[error("{0}")]
     Corrupt(String),
+}
+
+impl<E> E57Error<E> {
+    /// The reader's own error, or the consumer's.
+    pub(crate) fn split(self) -> Result<E57Error, E> {
+        match self {
+            Self::File(e) => Ok(E57Error::File(e)),
+            Self::Scan { scan, name, source } => Ok(E57Error::Scan { scan, name, source }),
+            Self::Empty(n) => Ok(E57Error::Empty(n)),
+            Self::Sink(e) => Err(e),
+            Self::Corrupt(msg) => Ok(E57Error::Corrupt(msg)),
+        }
+    }
 }
 
 /// Points handed on at a time.
 const CHUNK: usize = 1 << 16;
 
 /// Reads every scan of an E57 file into `sink`.
-pub fn read(path: &Path, sink: &mut dyn Sink) -> Result<ReadReport, E57Error> {
+pub fn read<E>(path: &Path, sink: &mut dyn Sink<Error = E>) -> Result<ReadReport, E57Error<E>> {
     super::guarded(|| read_guarded(path, sink), E57Error::Corrupt)
 }
 
-fn read_guarded(path: &Path, sink: &mut dyn Sink) -> Result<ReadReport, E57Error> {
+fn read_guarded<E>(path: &Path, sink: &mut dyn Sink<Error = E>) -> Result<ReadReport, E57Error<E>> {
     let mut reader = ::e57::E57Reader::from_file(path).map_err(E57Error::File)?;
     let clouds = reader.pointclouds();
     let mut report = ReadReport::default();

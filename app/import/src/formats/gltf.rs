@@ -66,7 +66,11 @@ type Layout<'b> = (&'b [u8], usize, usize, usize);
 const MAX_NODE_VISITS: usize = 1 << 20;
 
 /// Reads a glTF or GLB file.
-pub fn read(path: &Path, opts: &ReadOptions, sink: &mut dyn Sink) -> Result<ReadReport, ReadError> {
+pub fn read<E>(
+    path: &Path,
+    opts: &ReadOptions,
+    sink: &mut dyn Sink<Error = E>,
+) -> Result<ReadReport, ReadError<E>> {
     let bytes = std::fs::read(path)?;
     let dir = path.parent().unwrap_or(Path::new("."));
     let surface = super::guarded(|| load(&bytes, dir), |m| GltfError::Invalid(m).into())?;
@@ -83,7 +87,7 @@ pub fn read(path: &Path, opts: &ReadOptions, sink: &mut dyn Sink) -> Result<Read
 }
 
 /// The model's default scene as a surface.
-fn load(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError> {
+fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<E>> {
     // The crate subtracts the 12-byte header from the GLB's declared length unchecked.
     if let Some(header) = bytes.strip_prefix(b"glTF") {
         let declared = header.get(4..8).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
@@ -341,13 +345,13 @@ fn load(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError> {
 }
 
 /// A glTF material as the sampler uses it (its texture decoded once per image and wrap modes).
-fn material(
+fn material<E>(
     gm: &gltf::Material,
     doc: &gltf::Document,
     buffers: &[Vec<u8>],
     dir: &Path,
     textures: &mut Decoded,
-) -> Result<Material, ReadError> {
+) -> Result<Material, ReadError<E>> {
     let pbr = gm.pbr_metallic_roughness();
     let factor = pbr.base_color_factor();
     if !factor.iter().all(|f| f.is_finite()) {
@@ -386,12 +390,12 @@ fn material(
 }
 
 /// Decodes an image of the file (in a buffer view, a data URI or a file beside it).
-fn image_texture(
+fn image_texture<E>(
     image: &gltf::Image,
     doc: &gltf::Document,
     buffers: &[Vec<u8>],
     dir: &Path,
-) -> Result<Texture, ReadError> {
+) -> Result<Texture, ReadError<E>> {
     let name = format!("image {}", image.index());
     // The crate's `source` unwraps what the file may lack: checked first.
     let json = &doc.as_json().images[image.index()];
@@ -426,7 +430,11 @@ fn image_texture(
 }
 
 /// Every buffer's bytes: the GLB's binary chunk, data URIs, files beside the model.
-fn load_buffers(doc: &gltf::Document, blob: Option<&[u8]>, dir: &Path) -> Result<Vec<Vec<u8>>, ReadError> {
+fn load_buffers<E>(
+    doc: &gltf::Document,
+    blob: Option<&[u8]>,
+    dir: &Path,
+) -> Result<Vec<Vec<u8>>, ReadError<E>> {
     doc.buffers()
         .map(|b| {
             let place = |what: &str| format!("buffer {}{what}", b.index());

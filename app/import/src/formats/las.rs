@@ -9,20 +9,13 @@ use crate::source::{InputPoint, ReadReport, Sink};
 use glam::{DVec3, Vec3};
 use std::path::Path;
 
-/// Why a LAS or LAZ file cannot be read.
+/// Why a LAS or LAZ file cannot be read: the reader's own errors, or `E`, the error of the
+/// consumer of the points that stopped the reading.
 #[derive(Debug, thiserror::Error)]
-pub enum LasError {
+pub enum LasError<E = std::convert::Infallible> {
     /// The `las` crate's error (header, VLRs, point records, LAZ chunks).
     #[error("{0}")]
     Las(#[from] ::las::Error),
-    /// A point record that cannot be decoded.
-    #[error("point {index}: {source}")]
-    Point {
-        /// 1-based index of the point.
-        index: u64,
-        /// The decoder's error.
-        source: ::las::Error,
-    },
     /// A point with a non-finite coordinate.
     #[error("point {index}: non-finite coordinate ({x}, {y}, {z})")]
     NonFinite {
@@ -35,19 +28,35 @@ pub enum LasError {
         /// Coordinates.
         z: f64,
     },
-    /// Rejected by the consumer of the points.
-    #[error("{0}")]
-    Sink(String),
+    /// Rejected by the consumer of the points, with its error.
+    #[error(transparent)]
+    Sink(E),
     /// The decoder gave up on corrupted data.
     #[error("{0}")]
     Corrupt(String),
 }
 
-/// Points decoded at a time.
+impl<E> LasError<E> {
+    /// The reader's own error, or the consumer's.
+    pub(crate) fn split(self) -> Result<LasError, E> {
+        match self {
+            Self::Las(e) => Ok(LasError::Las(e)),
+            Self::NonFinite { index, x, y, z } => Ok(LasError::NonFinite { index, x, y, z }),
+            Self::Sink(e) => Err(e),
+            Self::Corrupt(msg) => Ok(LasError::Corrupt(msg)),
+        }
+    }
+}
+
+/// Points decoded at a time, at most.
 const CHUNK: u64 = 1 << 16;
 
+/// Bytes of point records decoded at a time, at most: the decoder fills a buffer of the records'
+/// length (up to 64 KiB by the header) times their number (up to [`CHUNK`]).
+const CHUNK_BYTES: u64 = 16 << 20;
+
 /// Reads a LAS or LAZ file into `sink`.
-pub fn read(path: &Path, sink: &mut dyn Sink) -> Result<ReadReport, LasError> {
+pub fn read<E>(path: &Path, sink: &mut dyn Sink<Error = E>) -> Result<ReadReport, LasError<E>> {
     super::guarded(|| read_guarded(path, sink), LasError::Corrupt)
 }
 
@@ -55,7 +64,7 @@ pub fn read(path: &Path, sink: &mut dyn Sink) -> Result<ReadReport, LasError> {
 /// by them (a corrupted length would ask for gigabytes and abort the process): the header,
 /// the variable-length records, the point data of an uncompressed file, and the extended
 /// records of LAS 1.4.
-fn check_lengths(path: &Path) -> Result<(), LasError> {
+fn check_lengths<E>(path: &Path) -> Result<(), LasError<E>> {
     use std::io::{Read, Seek, SeekFrom};
     let bad = |why: String| LasError::Corrupt(format!("the header is inconsistent with the file: {why}"));
     let mut f = std::fs::File::open(path).map_err(|e| LasError::Las(e.into()))?;
@@ -87,7 +96,17 @@ fn check_lengths(path: &Path) -> Result<(), LasError> {
             return Err(bad(format!("variable-length record {} ends beyond the file", i + 1)));
         }
     }
+    // The `las` crate computes where the points end from LAS 1.4's 64-bit count, unchecked.
+    if minor >= 4
+        && n >= 255
+        && u64_at(247).checked_mul(record_len).and_then(|b| b.checked_add(offset)).is_none()
+    {
+        return Err(bad(format!("{} points of {record_len} bytes overflow the file's offsets", u64_at(247))));
+    }
     let compressed = format & 0x80 != 0 || format & 0x40 != 0;
+    if compressed {
+        check_chunk_table(&mut f, offset, size)?;
+    }
     let points = if minor >= 4 && n >= 255 { u64_at(247) } else { u64::from(u32_at(107)) };
     if !compressed
         && points.checked_mul(record_len).and_then(|b| b.checked_add(offset)).is_none_or(|end| end > size)
@@ -115,48 +134,152 @@ fn check_lengths(path: &Path) -> Result<(), LasError> {
     Ok(())
 }
 
-fn read_guarded(path: &Path, sink: &mut dyn Sink) -> Result<ReadReport, LasError> {
+/// The smallest point record (format 0), in bytes. Each chunk of a LAZ file starts with its
+/// first point uncompressed, so a chunk takes at least this many bytes of the file.
+const MIN_RECORD: u64 = 20;
+
+/// Checks the number of chunks that a LAZ chunk table announces before the LAZ decoder reserves
+/// 16 bytes for each (a corrupted count asks for up to 64 GiB, and a failed reservation aborts
+/// the process): the chunks lie between the start of the point data and the table, at least
+/// [`MIN_RECORD`] bytes each, so the table takes less memory than the file's size. Whether the
+/// file has a table is read from its LAZ record as the `las` crate finds it (its own walk of the
+/// records: where it starts them need not be where the header's size says); the table's place
+/// as the decoder finds it: the 8 bytes at the start of the point data, else the file's last 8
+/// bytes. A table that is not in the file is left to the decoder, which reports it (or, for
+/// fixed-size chunks, reads without it).
+fn check_chunk_table<E>(f: &mut std::fs::File, data_start: u64, size: u64) -> Result<(), LasError<E>> {
+    use std::io::{Read, Seek, SeekFrom};
+    f.seek(SeekFrom::Start(0)).map_err(|e| LasError::Las(e.into()))?;
+    let header = ::las::Header::new(std::io::BufReader::new(&mut *f))?;
+    let laz = header.vlrs().iter().find(|v| v.user_id == "laszip encoded" && v.record_id == 22204);
+    // Its first two bytes: the compressor, 2 and 3 being the chunked ones (1 has no table).
+    if !laz.is_some_and(|v| matches!(v.data.get(..2), Some([2 | 3, 0]))) {
+        return Ok(());
+    }
+    let mut read_at =
+        |at: u64, buf: &mut [u8]| f.seek(SeekFrom::Start(at)).and_then(|_| f.read_exact(buf)).is_ok();
+    let mut b = [0u8; 8];
+    let mut table = if read_at(data_start, &mut b) { i64::from_le_bytes(b) } else { return Ok(()) };
+    if table <= data_start as i64 {
+        if size < 8 || !read_at(size - 8, &mut b) {
+            return Ok(());
+        }
+        table = i64::from_le_bytes(b);
+    }
+    let table = table as u64;
+    let mut h = [0u8; 8];
+    if table <= data_start || !read_at(table, &mut h) {
+        return Ok(());
+    }
+    // version (4), number of chunks (4)
+    let chunks = u64::from(u32::from_le_bytes([h[4], h[5], h[6], h[7]]));
+    let room = table.saturating_sub(data_start + 8);
+    if chunks > room / MIN_RECORD {
+        return Err(LasError::Corrupt(format!(
+            "the LAZ chunk table at byte {table} counts {chunks} chunks, more than the {room} bytes \
+             of compressed points before it can hold ({MIN_RECORD} bytes at least each)"
+        )));
+    }
+    Ok(())
+}
+
+/// Most points a LAZ chunk may hold for the file to be decompressed in parallel.
+const PARALLEL_CHUNK_POINTS: u64 = 1 << 20;
+
+/// Whether a LAZ file's chunks may be decompressed in parallel (several chunks at once, on the
+/// pool): its chunk table can be read, the chunks fit in the file and none holds more than
+/// [`PARALLEL_CHUNK_POINTS`]. The parallel decoder allocates by that table, so a corrupted one
+/// must not reach it: such a file is decompressed on one thread, chunk by chunk, as the decoder
+/// always did. Figures in docs/performance.md (Survey formats).
+fn laz_in_parallel(path: &Path) -> bool {
+    let check = || -> Option<bool> {
+        let size = std::fs::metadata(path).ok()?.len();
+        let mut f = std::io::BufReader::new(std::fs::File::open(path).ok()?);
+        // Leaves the file at the start of the point data, where the chunk table's offset is.
+        let header = ::las::Header::new(&mut f).ok()?;
+        if !header.point_format().is_compressed {
+            return Some(false);
+        }
+        let table = ::laz::laszip::ChunkTable::read_from(&mut f, &header.laz_vlr().ok()?).ok()?;
+        let chunks: &[::laz::laszip::ChunkTableEntry] = table.as_ref();
+        let bytes = chunks.iter().try_fold(0u64, |sum, c| sum.checked_add(c.byte_count))?;
+        Some(bytes <= size && chunks.iter().all(|c| c.point_count <= PARALLEL_CHUNK_POINTS))
+    };
+    check().unwrap_or(false)
+}
+
+fn read_guarded<E>(path: &Path, sink: &mut dyn Sink<Error = E>) -> Result<ReadReport, LasError<E>> {
     check_lengths(path)?;
-    let mut reader = ::las::Reader::from_path(path)?;
+    let parallel = if laz_in_parallel(path) { ::las::LazParallelism::Yes } else { ::las::LazParallelism::No };
+    let options = ::las::ReaderOptions::default().with_laz_parallelism(parallel);
+    let file = std::fs::File::open(path).map_err(|e| LasError::Las(e.into()))?;
+    let mut reader = ::las::Reader::with_options(std::io::BufReader::new(file), options)?;
     let header = reader.header().clone();
     let has_colors = header.point_format().has_color;
     let total = header.number_of_points();
+    let batch = CHUNK.min(CHUNK_BYTES / u64::from(header.point_format().len()).max(1)).max(1);
     let mut report = ReadReport::default();
     // Where colour comes from and its range (8 or 16 bits), decided on the first chunk.
     let mut mode: Option<Colour> = None;
     let mut index = 0u64;
+    // The records of a chunk, read into one buffer reused from chunk to chunk; their fields are
+    // taken column by column (no `las::Point` is made: its decoding of every field cost more
+    // than the rest of this reader).
+    let mut data = ::las::PointDataBuilder::new().for_header(&header).build();
     while index < total {
-        let data = reader.read_points(CHUNK.min(total - index))?;
-        if data.is_empty() {
+        if reader.fill_points(batch.min(total - index), &mut data)? == 0 {
             report.warnings.push(format!("the header announces {total} points, the file holds {index}"));
             break;
         }
-        let points: Vec<::las::Point> = data
-            .points()
-            .enumerate()
-            .map(|(k, p)| p.map_err(|source| LasError::Point { index: index + k as u64 + 1, source }))
-            .collect::<Result<_, _>>()?;
-        let mode = *mode.get_or_insert_with(|| Colour::of(&points, has_colors));
-        let mut out = Vec::with_capacity(points.len());
-        for p in points {
-            index += 1;
-            if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
-                return Err(LasError::NonFinite { index, x: p.x, y: p.y, z: p.z });
-            }
-            out.push(InputPoint {
-                pos: DVec3::new(p.x, p.y, p.z),
-                normal: Vec3::ZERO,
-                color: mode.color(&p),
-                radius: 0.0,
-                spacing: 0.0,
-            });
-        }
+        let mode = *mode.get_or_insert_with(|| Colour::of(&data, has_colors));
+        let out = match (mode, data.rgb()) {
+            (Colour::Rgb(max), Some(rgb)) => points(
+                &data,
+                &mut index,
+                rgb.map(|(r, g, b)| {
+                    let ch = |v: u16| super::to_u8(f64::from(v), max);
+                    [ch(r), ch(g), ch(b), 255]
+                }),
+            ),
+            (Colour::Intensity(max), _) => points(
+                &data,
+                &mut index,
+                data.intensity().map(|i| {
+                    let g = super::to_u8(f64::from(i), max);
+                    [g, g, g, 255]
+                }),
+            ),
+            _ => points(&data, &mut index, std::iter::repeat([0; 4])),
+        }?;
         report.rows += out.len() as u64;
         report.points += out.len() as u64;
         sink.points(out).map_err(LasError::Sink)?;
     }
     report.has_colors = !matches!(mode, None | Some(Colour::None));
     Ok(report)
+}
+
+/// The points of a chunk with their `colors`; `index` counts them (1-based in errors).
+fn points<E>(
+    data: &::las::PointData,
+    index: &mut u64,
+    colors: impl Iterator<Item = [u8; 4]>,
+) -> Result<Vec<InputPoint>, LasError<E>> {
+    let mut out = Vec::with_capacity(data.len());
+    for (((x, y), z), color) in data.x().zip(data.y()).zip(data.z()).zip(colors) {
+        *index += 1;
+        if !(x.is_finite() && y.is_finite() && z.is_finite()) {
+            return Err(LasError::NonFinite { index: *index, x, y, z });
+        }
+        out.push(InputPoint {
+            pos: DVec3::new(x, y, z),
+            normal: Vec3::ZERO,
+            color,
+            radius: 0.0,
+            spacing: 0.0,
+        });
+    }
+    Ok(out)
 }
 
 /// Where a file's colour comes from, with the largest value of its range.
@@ -170,30 +293,16 @@ enum Colour {
 impl Colour {
     /// Decided on the first points: RGB when the format has it and it is not all zero, else
     /// intensity when it is not all zero; 8-bit when no value exceeds 255.
-    fn of(points: &[::las::Point], has_rgb: bool) -> Self {
+    fn of(points: &::las::PointData, has_rgb: bool) -> Self {
         let range = |largest: u16| if largest > 255 { 65535.0 } else { 255.0 };
-        let rgb = points.iter().filter_map(|p| p.color).map(|c| c.red.max(c.green).max(c.blue)).max();
+        let rgb = points.rgb().and_then(|c| c.map(|(r, g, b)| r.max(g).max(b)).max());
         match rgb {
             Some(m) if has_rgb && m > 0 => return Self::Rgb(range(m)),
             _ => {}
         }
-        match points.iter().map(|p| p.intensity).max() {
+        match points.intensity().max() {
             Some(m) if m > 0 => Self::Intensity(range(m)),
             _ => Self::None,
-        }
-    }
-
-    fn color(self, p: &::las::Point) -> [u8; 4] {
-        match (self, p.color) {
-            (Self::Rgb(max), Some(c)) => {
-                let ch = |v: u16| super::to_u8(f64::from(v), max);
-                [ch(c.red), ch(c.green), ch(c.blue), 255]
-            }
-            (Self::Intensity(max), _) => {
-                let g = super::to_u8(f64::from(p.intensity), max);
-                [g, g, g, 255]
-            }
-            _ => [0; 4],
         }
     }
 }

@@ -116,7 +116,7 @@ impl Buffered {
 
     /// Whether every kept triangle's indices name a vertex (faces read before their vertices
     /// are checked once every vertex is read).
-    pub(crate) fn check_indices(&self) -> Result<(), ReadError> {
+    pub(crate) fn check_indices<E>(&self) -> Result<(), ReadError<E>> {
         let n = self.points.len();
         match self.tris.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
             Some(t) => Err(ReadError::Unusable(format!(
@@ -129,7 +129,11 @@ impl Buffered {
 
     /// Applies the triangles and passes the vertices on with their face normals (where they
     /// have none of their own) and radii; then the samples of the large triangles' surfaces.
-    pub(crate) fn finish(mut self, report: &mut ReadReport, sink: &mut dyn Sink) -> Result<(), ReadError> {
+    pub(crate) fn finish<E>(
+        mut self,
+        report: &mut ReadReport,
+        sink: &mut dyn Sink<Error = E>,
+    ) -> Result<(), ReadError<E>> {
         if self.unchecked {
             self.check_indices()?;
         }

@@ -17,11 +17,11 @@ use std::path::{Path, PathBuf};
 
 /// Reads an OBJ stream: `v x y z [r g b]` vertices and `f` faces (for normals). Without the
 /// file's directory, material libraries are not looked for (a warning says so).
-pub fn read_obj(
+pub fn read_obj<E>(
     r: &mut dyn BufRead,
     opts: &ReadOptions,
-    sink: &mut dyn Sink,
-) -> Result<ReadReport, ReadError> {
+    sink: &mut dyn Sink<Error = E>,
+) -> Result<ReadReport, ReadError<E>> {
     read_obj_in(r, None, opts, sink)
 }
 
@@ -29,12 +29,12 @@ pub fn read_obj(
 /// OBJ file's directory): `v x y z [r g b]` vertices, `vt` texture coordinates, `f` faces,
 /// `mtllib` and `usemtl`. Other statements (`vn`, groups, comments, in any encoding) are
 /// ignored. Read in blocks of lines parsed in parallel ([`crate::lines`]), visited in order.
-pub fn read_obj_in(
+pub fn read_obj_in<E>(
     r: &mut dyn BufRead,
     dir: Option<&Path>,
     opts: &ReadOptions,
-    sink: &mut dyn Sink,
-) -> Result<ReadReport, ReadError> {
+    sink: &mut dyn Sink<Error = E>,
+) -> Result<ReadReport, ReadError<E>> {
     let mut report = ReadReport::default();
     let mut buffered = Buffered { fill: super::mesh::Fill::from_options(opts), ..Default::default() };
     let mut dropped = 0u64;
@@ -48,7 +48,7 @@ pub fn read_obj_in(
     let mut tri_mat: Vec<u32> = Vec::new();
     let mut tri_uv: Vec<[u32; 3]> = Vec::new();
     let unusable = |l: usize, m: String| ReadError::Unusable(format!("line {l}: {m}"));
-    let mut visit = |_: &[u8], parsed: &mut ObjParsed| -> Result<(), ReadError> {
+    let mut visit = |_: &[u8], parsed: &mut ObjParsed| -> Result<(), ReadError<E>> {
         for piece in &mut parsed.pieces {
             let (mut v, mut f, mut names) = (0, 0, 0);
             for st in &piece.stmts {
@@ -125,7 +125,7 @@ pub fn read_obj_in(
                         if !libraries.is_empty() {
                             let nt = texcoords.len() as i64;
                             let mut corners = [0u32; 3];
-                            let corner = |k: usize| -> Result<u32, ReadError> {
+                            let corner = |k: usize| -> Result<u32, ReadError<E>> {
                                 match piece.tex_indices[f + k] {
                                     0 => Ok(u32::MAX),
                                     i => {
@@ -201,7 +201,7 @@ pub fn read_obj_in(
 /// material named by its `usemtl`, if the libraries define it) and texture coordinates;
 /// vertices in no triangle are passed on as they are.
 #[allow(clippy::too_many_arguments)]
-fn sample_materials(
+fn sample_materials<E>(
     buffered: Buffered,
     texcoords: &[[f32; 2]],
     tri_uv: &[[u32; 3]],
@@ -209,8 +209,8 @@ fn sample_materials(
     materials: &[Option<mtl::ObjMaterial>],
     opts: &ReadOptions,
     mut report: ReadReport,
-    sink: &mut dyn Sink,
-) -> Result<ReadReport, ReadError> {
+    sink: &mut dyn Sink<Error = E>,
+) -> Result<ReadReport, ReadError<E>> {
     let points = buffered.points;
     let mut surface = Surface {
         positions: points.iter().map(|p| p.pos).collect(),
@@ -272,12 +272,12 @@ pub mod mtl {
     /// `libraries` named by `mtllib` (with their lines), found in `dir`. A library that cannot
     /// be read, or a material it does not define, is a warning; a texture that cannot be read is
     /// an error naming it.
-    pub(crate) fn load_libraries(
+    pub(crate) fn load_libraries<E>(
         dir: &Path,
         libraries: &[(String, usize)],
         used: &[String],
         warnings: &mut Vec<String>,
-    ) -> Result<Vec<Option<ObjMaterial>>, ReadError> {
+    ) -> Result<Vec<Option<ObjMaterial>>, ReadError<E>> {
         let mut defined: Vec<(String, ObjMaterial)> = Vec::new();
         let mut textures = TextureCache::default();
         for (names, line) in libraries {
@@ -314,12 +314,12 @@ pub mod mtl {
     }
 
     /// The materials a library defines, in order.
-    pub(crate) fn parse(
+    pub(crate) fn parse<E>(
         path: &Path,
         bytes: &[u8],
         textures: &mut TextureCache,
         warnings: &mut Vec<String>,
-    ) -> Result<Vec<(String, ObjMaterial)>, ReadError> {
+    ) -> Result<Vec<(String, ObjMaterial)>, ReadError<E>> {
         let dir = path.parent().unwrap_or(Path::new("."));
         let text = String::from_utf8_lossy(bytes);
         let file = path.display();

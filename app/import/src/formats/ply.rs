@@ -30,21 +30,21 @@ pub(crate) fn color_channel(v: f64, ty: ply::Scalar) -> u8 {
 }
 
 /// Reads a PLY stream (its textures, if any, are not looked for: [`read_ply_in`]).
-pub fn read_ply(
+pub fn read_ply<E>(
     r: &mut (dyn BufRead + Send),
     opts: &ReadOptions,
-    sink: &mut dyn Sink,
-) -> Result<ReadReport, ReadError> {
+    sink: &mut dyn Sink<Error = E>,
+) -> Result<ReadReport, ReadError<E>> {
     read_ply_in(r, None, opts, sink)
 }
 
 /// Reads a PLY stream whose texture files (`comment TextureFile`) are in `dir`.
-pub fn read_ply_in(
+pub fn read_ply_in<E>(
     r: &mut (dyn BufRead + Send),
     dir: Option<&Path>,
     opts: &ReadOptions,
-    sink: &mut dyn Sink,
-) -> Result<ReadReport, ReadError> {
+    sink: &mut dyn Sink<Error = E>,
+) -> Result<ReadReport, ReadError<E>> {
     let header = ply::read_header(r)?;
     let mut report = ReadReport { warnings: header.warnings.clone(), ..Default::default() };
     let names: Vec<&str> = header.elements.iter().map(|e| e.name.as_str()).collect();
@@ -208,15 +208,15 @@ pub fn read_ply_in(
 /// A textured PLY sampled on its surface: every triangle with the texture, its corners' texture
 /// coordinates per vertex (`uvs`) or per triangle (`tri_uvs`); vertices in no triangle are
 /// passed on as they are.
-fn sample_textured(
+fn sample_textured<E>(
     buffered: Buffered,
     uvs: &[[f32; 2]],
     tri_uvs: &[[[f32; 2]; 3]],
     texture: Arc<Texture>,
     opts: &ReadOptions,
     mut report: ReadReport,
-    sink: &mut dyn Sink,
-) -> Result<ReadReport, ReadError> {
+    sink: &mut dyn Sink<Error = E>,
+) -> Result<ReadReport, ReadError<E>> {
     buffered.check_indices()?;
     let points = buffered.points;
     // PLY's v runs up from the bottom of the image; the sampler's down from the top.

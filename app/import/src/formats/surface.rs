@@ -103,12 +103,12 @@ const SMOOTH_COS: f32 = 0.866;
 
 /// Passes on the vertices of `points` that no triangle of `tris` uses (a point cloud in the same
 /// file as a mesh sampled on its surface): they are samples of their own.
-pub(crate) fn pass_lone_vertices(
+pub(crate) fn pass_lone_vertices<E>(
     points: &[InputPoint],
     tris: &[Tri],
     report: &mut ReadReport,
-    sink: &mut dyn Sink,
-) -> Result<(), ReadError> {
+    sink: &mut dyn Sink<Error = E>,
+) -> Result<(), ReadError<E>> {
     let mut in_tri = vec![false; points.len()];
     for t in tris {
         for i in t.v {
@@ -174,12 +174,12 @@ impl Surface {
 
     /// Samples every triangle and passes the samples on, in triangle order; adds them to the
     /// report. An error when there would be more than `max_samples`, or when the sink refuses.
-    pub fn sample(
+    pub fn sample<E>(
         &self,
         params: &SampleParams,
         report: &mut ReadReport,
-        sink: &mut dyn Sink,
-    ) -> Result<u64, ReadError> {
+        sink: &mut dyn Sink<Error = E>,
+    ) -> Result<u64, ReadError<E>> {
         let n = self.positions.len();
         if let Some((k, t)) = self.tris.iter().enumerate().find(|(_, t)| t.v.iter().any(|&i| i as usize >= n))
         {
@@ -203,7 +203,7 @@ impl Surface {
         let mut made = 0u64;
         let mut units: Vec<(u32, u32, u32)> = Vec::new();
         let mut in_batch = 0u64;
-        let mut flush = |units: &mut Vec<(u32, u32, u32)>, made: &mut u64| -> Result<(), ReadError> {
+        let mut flush = |units: &mut Vec<(u32, u32, u32)>, made: &mut u64| -> Result<(), ReadError<E>> {
             if units.is_empty() {
                 return Ok(());
             }

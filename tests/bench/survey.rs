@@ -1,0 +1,291 @@
+//! The survey formats' readers alone (`--survey-only`). One generated cloud, a noisy sphere of
+//! 10 m radius in georeferenced coordinates (offsets of 5·10⁵ and 4·10⁶ m, quantised to the
+//! millimetre, 8-bit colours), is written as LAS 1.2 (point format 3, 16-bit RGB), LAZ, E57
+//! (double coordinates, 8-bit colours) and binary PLY (double positions, uchar colours): every
+//! format holds the same points, so their imports do the same work and make the same store.
+//! Each reader (into a sink that only counts) is timed beside its decoder crate's own bare loop
+//! over the same file: `las`'s `fill_points` (LAS records copied, LAZ decompressed) and `e57`'s
+//! point iterator with the same conversions as the importer.
+
+use glam::DVec3;
+use kiosk_import::source::{self, InputPoint, ReadOptions};
+use rand::{Rng, SeedableRng};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The files' transforms: 1 mm, and the offsets of a projected survey.
+const SCALE: f64 = 0.001;
+const OFFSET: [f64; 3] = [5.0e5, 4.0e6, 0.0];
+
+/// One point of the cloud: its integer coordinates (millimetres from [`OFFSET`]) and colour.
+struct Point {
+    ints: [i32; 3],
+    rgb: [u8; 3],
+}
+
+impl Point {
+    /// Its coordinates as the `las` crate computes them from the integers (so that every format
+    /// holds the same `f64`s).
+    fn pos(&self) -> [f64; 3] {
+        std::array::from_fn(|k| las::Transform { scale: SCALE, offset: OFFSET[k] }.direct(self.ints[k]))
+    }
+}
+
+/// `n` points on a sphere of radius 10 m with ±2 mm of noise, uniformly at random (seeded),
+/// coloured by direction.
+fn cloud(n: u64) -> Vec<Point> {
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(7);
+    let centre = DVec3::new(20.0, 20.0, 50.0);
+    (0..n)
+        .map(|_| {
+            let z: f64 = rng.random_range(-1.0..1.0);
+            let phi: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+            let s = (1.0 - z * z).sqrt();
+            let dir = DVec3::new(s * phi.cos(), s * phi.sin(), z);
+            let local = centre + dir * (10.0 + rng.random_range(-0.002..0.002));
+            let ints = (local / SCALE).round().to_array().map(|v| v as i32);
+            let rgb = (dir * 127.0 + 128.0).to_array().map(|v| v as u8);
+            Point { ints, rgb }
+        })
+        .collect()
+}
+
+/// The cloud's files (generated once for each size, then reused).
+struct Files {
+    las: PathBuf,
+    laz: PathBuf,
+    e57: PathBuf,
+    ply: PathBuf,
+}
+
+fn files(dir: &Path, n: u64) -> anyhow::Result<Files> {
+    let name = |ext: &str| dir.join(format!("survey-{n}.{ext}"));
+    let f = Files { las: name("las"), laz: name("laz"), e57: name("e57"), ply: name("ply") };
+    if [&f.las, &f.laz, &f.e57, &f.ply].iter().all(|p| p.exists()) {
+        return Ok(f);
+    }
+    println!("writing the survey cloud of {n} points to {}", dir.display());
+    let pts = cloud(n);
+    // Each file is written under a temporary name and renamed when complete.
+    let done = |tmp: &Path, path: &Path| std::fs::rename(tmp, path);
+    for path in [&f.las, &f.laz] {
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("las");
+        let tmp = dir.join(format!("survey-{n}.tmp.{ext}"));
+        write_las(&pts, &tmp)?;
+        done(&tmp, path)?;
+    }
+    let tmp = dir.join(format!("survey-{n}.tmp.e57"));
+    write_e57(&pts, &tmp)?;
+    done(&tmp, &f.e57)?;
+    let tmp = dir.join(format!("survey-{n}.tmp.ply"));
+    write_ply(&pts, &tmp)?;
+    done(&tmp, &f.ply)?;
+    Ok(f)
+}
+
+/// LAS 1.2, point format 3 (GPS time and 16-bit RGB); compressed when the name ends in `.laz`.
+fn write_las(pts: &[Point], path: &Path) -> anyhow::Result<()> {
+    let mut header = las::Builder::from((1, 2));
+    header.point_format = las::point::Format::new(3)?;
+    header.transforms = las::Vector {
+        x: las::Transform { scale: SCALE, offset: OFFSET[0] },
+        y: las::Transform { scale: SCALE, offset: OFFSET[1] },
+        z: las::Transform { scale: SCALE, offset: OFFSET[2] },
+    };
+    let mut w = las::Writer::from_path(path, header.into_header()?)?;
+    for (i, p) in pts.iter().enumerate() {
+        let [x, y, z] = p.pos();
+        let [r, g, b] = p.rgb.map(|c| u16::from(c) * 257);
+        w.write_point(las::Point {
+            x,
+            y,
+            z,
+            intensity: 1000,
+            gps_time: Some(i as f64 * 1e-5),
+            color: Some(las::Color::new(r, g, b)),
+            ..Default::default()
+        })?;
+    }
+    w.close()?;
+    Ok(())
+}
+
+/// One scan with double Cartesian coordinates and 8-bit colours.
+fn write_e57(pts: &[Point], path: &Path) -> anyhow::Result<()> {
+    use e57::{Record, RecordValue};
+    let mut w = e57::E57Writer::from_file(path, "survey-cloud")?;
+    let prototype = vec![
+        Record::CARTESIAN_X_F64,
+        Record::CARTESIAN_Y_F64,
+        Record::CARTESIAN_Z_F64,
+        Record::COLOR_RED_U8,
+        Record::COLOR_GREEN_U8,
+        Record::COLOR_BLUE_U8,
+    ];
+    let mut pc = w.add_pointcloud("survey-scan", prototype)?;
+    for p in pts {
+        let mut values: Vec<RecordValue> = p.pos().into_iter().map(RecordValue::Double).collect();
+        values.extend(p.rgb.map(|c| RecordValue::Integer(i64::from(c))));
+        pc.add_point(values)?;
+    }
+    pc.finalize()?;
+    w.finalize()?;
+    Ok(())
+}
+
+/// Binary little-endian PLY: double positions, uchar colours, no normals (they are estimated).
+fn write_ply(pts: &[Point], path: &Path) -> anyhow::Result<()> {
+    use std::io::Write;
+    let mut w = std::io::BufWriter::with_capacity(1 << 20, std::fs::File::create(path)?);
+    write!(
+        w,
+        "ply\nformat binary_little_endian 1.0\ncomment IsoKiosk benchmark: survey cloud\n\
+         element vertex {}\nproperty double x\nproperty double y\nproperty double z\n\
+         property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n",
+        pts.len()
+    )?;
+    for p in pts {
+        for v in p.pos() {
+            w.write_all(&v.to_le_bytes())?;
+        }
+        w.write_all(&p.rgb)?;
+    }
+    w.into_inner().map_err(std::io::IntoInnerError::into_error)?.sync_all()?;
+    Ok(())
+}
+
+/// The importer's reader of `path` into a sink that counts: the points.
+fn reader(path: &Path) -> anyhow::Result<u64> {
+    let mut n = 0u64;
+    let mut count = |_: InputPoint| -> Result<(), std::convert::Infallible> {
+        n += 1;
+        Ok(())
+    };
+    let report = source::read_file(path, &ReadOptions::default(), &mut count)?;
+    anyhow::ensure!(report.points == n, "{} points reported, {n} received", report.points);
+    Ok(n)
+}
+
+/// `las`'s own loop: records into a reused buffer (LAZ decompressed, its chunks on every core as
+/// the importer has them), nothing else.
+fn las_decoder(path: &Path) -> anyhow::Result<u64> {
+    las_loop(las::Reader::from_path(path)?)
+}
+
+/// The same loop with LAZ decompressed on one thread (as before the importer took its chunks in
+/// parallel).
+fn laz_decoder_one_thread(path: &Path) -> anyhow::Result<u64> {
+    let options = las::ReaderOptions::default().with_laz_parallelism(las::LazParallelism::No);
+    las_loop(las::Reader::with_options(std::io::BufReader::new(std::fs::File::open(path)?), options)?)
+}
+
+fn las_loop(mut r: las::Reader) -> anyhow::Result<u64> {
+    let mut data = las::PointDataBuilder::new().for_header(r.header()).build();
+    let mut n = 0;
+    loop {
+        let got = r.fill_points(1 << 16, &mut data)?;
+        if got == 0 {
+            return Ok(n);
+        }
+        n += got;
+    }
+}
+
+/// `e57`'s own loop: every point of every scan, converted as the importer asks (spherical to
+/// Cartesian, pose applied, intensity as colour), counted.
+fn e57_decoder(path: &Path) -> anyhow::Result<u64> {
+    let mut r = e57::E57Reader::from_file(path)?;
+    let mut n = 0;
+    for pc in r.pointclouds() {
+        let mut points = r.pointcloud_simple(&pc)?;
+        points.spherical_to_cartesian(true);
+        points.apply_pose(true);
+        points.intensity_to_color(true);
+        for p in points {
+            if matches!(p?.cartesian, e57::CartesianCoordinate::Valid { .. }) {
+                n += 1;
+            }
+        }
+    }
+    Ok(n)
+}
+
+/// Seconds of `f` and its count.
+fn timed(f: &mut dyn FnMut() -> anyhow::Result<u64>) -> anyhow::Result<(f64, u64)> {
+    let start = Instant::now();
+    let n = f()?;
+    Ok((start.elapsed().as_secs_f64(), n))
+}
+
+/// `a` and `b` run in turn 5 times (after a run of each that warms the page cache): the median
+/// seconds of each and the median of their ratios pair by pair (the machine's speed drifts less
+/// within a pair than over the whole run), with the count of each.
+fn side_by_side(
+    a: &mut dyn FnMut() -> anyhow::Result<u64>,
+    b: &mut dyn FnMut() -> anyhow::Result<u64>,
+) -> anyhow::Result<[(f64, u64); 3]> {
+    let (_, na) = timed(a)?;
+    let (_, nb) = timed(b)?;
+    let (mut sa, mut sb, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..5 {
+        let (ta, ka) = timed(a)?;
+        let (tb, kb) = timed(b)?;
+        anyhow::ensure!(ka == na && kb == nb, "a different count");
+        sa.push(ta);
+        sb.push(tb);
+        ratio.push(ta / tb);
+    }
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    Ok([(median(sa), na), (median(sb), nb), (median(ratio), 0)])
+}
+
+/// Prints the readers alone beside their decoders' loops, each pair timed in turn.
+pub fn readers(dir: &Path, n: u64) -> anyhow::Result<()> {
+    let f = files(dir, n)?;
+    println!(
+        "\n## Survey readers alone ({n} points; each reader and its decoder's loop in turn, 5 pairs, medians; files in {})",
+        dir.display()
+    );
+    println!(
+        "| input | MB | reader s | reader M points/s | decoder's loop s | decoder M points/s | reader / decoder, pair by pair |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    let mb = |p: &Path| std::fs::metadata(p).map_or(f64::NAN, |m| m.len() as f64 / 1e6);
+    type Decoder = fn(&Path) -> anyhow::Result<u64>;
+    let rows: [(&str, &PathBuf, Option<Decoder>); 5] = [
+        ("LAS 1.2, format 3", &f.las, Some(las_decoder)),
+        ("LAZ", &f.laz, Some(las_decoder)),
+        ("LAZ, beside its decoder on one thread", &f.laz, Some(laz_decoder_one_thread)),
+        ("E57", &f.e57, Some(e57_decoder)),
+        ("PLY, binary", &f.ply, None),
+    ];
+    for (name, path, decoder) in rows {
+        let cells = match decoder {
+            Some(d) => {
+                let [(rs, rn), (ds, dn), (ratio, _)] = side_by_side(&mut || reader(path), &mut || d(path))?;
+                anyhow::ensure!(dn == rn, "{name}: the decoder gives {dn} points, the reader {rn}");
+                format!(
+                    "{rs:.3} | {:.1} | {ds:.3} | {:.1} | {ratio:.2}",
+                    rn as f64 / rs / 1e6,
+                    dn as f64 / ds / 1e6
+                )
+            }
+            None => {
+                let [(rs, rn), ..] = side_by_side(&mut || reader(path), &mut || Ok(0))?;
+                format!("{rs:.3} | {:.1} | — | — | —", rn as f64 / rs / 1e6)
+            }
+        };
+        println!("| {name} | {:.0} | {cells} |", mb(path));
+    }
+    println!(
+        "\nWhole imports: target/release/kiosk import {} -o survey.kstore (and the same with {}, {}, {})",
+        f.las.display(),
+        f.laz.display(),
+        f.e57.display(),
+        f.ply.display()
+    );
+    Ok(())
+}
