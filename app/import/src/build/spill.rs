@@ -1,0 +1,360 @@
+//! Stage 1, spilling, and the partition of stage 2: once the input outgrows memory, every sample
+//! goes to the temporary file of its cell, a leaf of a kd-tree ([`TopTree`]) chosen on a seeded
+//! random sample ([`Reservoir`]) of the samples seen so far; a thread of its own
+//! ([`CellWriter`]) writes the cells while the input is read. At the end, [`Plan::new`]
+//! partitions the cells into regions of at most half a chunk (a cell that outgrew that is split
+//! again, its samples distributed to new cells by [`distribute`]). The region stage gets the
+//! plan, which says how the regions join, and reads each region's samples back in the plan's
+//! order with [`read_region`].
+
+use super::{BuildError, BuildParams, Stage};
+use crate::source::InputPoint;
+use bytemuck::{Pod, Zeroable};
+use glam::{DVec3, Vec3};
+use rand::{Rng, SeedableRng};
+use std::fs::File;
+use std::io::{BufWriter, Read, Write};
+use std::path::Path;
+
+/// A sample as spilled to disk.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub(super) struct RawRec {
+    pos: [f64; 3],
+    normal: [f32; 3],
+    color: [u8; 4],
+    radius: f32,
+    spacing: f32,
+}
+
+impl From<InputPoint> for RawRec {
+    fn from(p: InputPoint) -> Self {
+        Self {
+            pos: p.pos.to_array(),
+            normal: p.normal.to_array(),
+            color: p.color,
+            radius: p.radius,
+            spacing: p.spacing,
+        }
+    }
+}
+
+/// A sample as the builder holds it: as pushed (in memory) or as spilled (read back from cells).
+pub(super) trait Record: Copy + Send + Sync + 'static {
+    fn position(&self) -> DVec3;
+    fn spilled(&self) -> RawRec;
+    /// Normal, colour, radius and spacing.
+    fn attributes(&self) -> (Vec3, [u8; 4], f32, f32);
+}
+
+impl Record for InputPoint {
+    #[inline]
+    fn position(&self) -> DVec3 {
+        self.pos
+    }
+    #[inline]
+    fn spilled(&self) -> RawRec {
+        RawRec::from(*self)
+    }
+    #[inline]
+    fn attributes(&self) -> (Vec3, [u8; 4], f32, f32) {
+        (self.normal, self.color, self.radius, self.spacing)
+    }
+}
+
+impl Record for RawRec {
+    #[inline]
+    fn position(&self) -> DVec3 {
+        DVec3::from_array(self.pos)
+    }
+    #[inline]
+    fn spilled(&self) -> RawRec {
+        *self
+    }
+    #[inline]
+    fn attributes(&self) -> (Vec3, [u8; 4], f32, f32) {
+        (Vec3::from_array(self.normal), self.color, self.radius, self.spacing)
+    }
+}
+
+/// Samples per batch handed to the cell writer.
+const SPILL_BATCH: usize = 1 << 16;
+
+/// Cells per expected region when the input first outgrows memory: regions are later made of
+/// whole subtrees of cells, so a region can be as small as half a chunk's worth / this.
+pub(super) const CELLS_PER_REGION: usize = 32;
+
+/// Sorts samples into the cell files of a kd-tree (chosen on the samples seen when memory ran
+/// out) on a thread of its own, so that reading the input and writing the cells overlap.
+/// Batches queue up to a few (memory stays bounded).
+pub(super) struct CellWriter<R> {
+    batch: Vec<R>,
+    tx: Option<std::sync::mpsc::SyncSender<Vec<R>>>,
+    thread: Option<std::thread::JoinHandle<std::io::Result<Cells>>>,
+}
+
+/// A kd-tree and its cells (one per leaf, in order).
+type Cells = (TopTree, Vec<Cell>);
+
+/// The temporary file of one cell and the samples in it.
+pub(super) struct Cell {
+    file: tempfile::NamedTempFile,
+    count: u64,
+}
+
+impl<R: Record> CellWriter<R> {
+    /// Starts the cells of `tree` with `first`.
+    pub(super) fn start(tmp_dir: &Path, tree: TopTree, first: Vec<R>) -> std::io::Result<Self> {
+        let mut cells = Vec::with_capacity(tree.leaves());
+        for _ in 0..tree.leaves() {
+            cells.push((BufWriter::with_capacity(1 << 16, tempfile::NamedTempFile::new_in(tmp_dir)?), 0u64));
+        }
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<R>>(4);
+        let thread = std::thread::Builder::new().name("cells".into()).spawn(move || {
+            for batch in rx {
+                for rec in &batch {
+                    let (w, count) = &mut cells[tree.locate(rec.position())];
+                    w.write_all(bytemuck::bytes_of(&rec.spilled()))?;
+                    *count += 1;
+                }
+            }
+            let cells = cells
+                .into_iter()
+                .map(|(w, count)| {
+                    Ok(Cell { file: w.into_inner().map_err(std::io::IntoInnerError::into_error)?, count })
+                })
+                .collect::<std::io::Result<_>>()?;
+            Ok((tree, cells))
+        })?;
+        let mut w = Self { batch: Vec::with_capacity(SPILL_BATCH), tx: Some(tx), thread: Some(thread) };
+        w.send(first)?;
+        Ok(w)
+    }
+
+    pub(super) fn push(&mut self, r: R) -> std::io::Result<()> {
+        self.batch.push(r);
+        if self.batch.len() >= SPILL_BATCH {
+            let batch = std::mem::replace(&mut self.batch, Vec::with_capacity(SPILL_BATCH));
+            self.send(batch)?;
+        }
+        Ok(())
+    }
+
+    fn send(&mut self, batch: Vec<R>) -> std::io::Result<()> {
+        match &self.tx {
+            Some(tx) if tx.send(batch).is_ok() => Ok(()),
+            // The thread stopped: its error says why.
+            _ => Err(self.join().err().unwrap_or_else(|| std::io::Error::other("the cell writer stopped"))),
+        }
+    }
+
+    fn join(&mut self) -> std::io::Result<Cells> {
+        self.tx = None;
+        match self.thread.take().map(std::thread::JoinHandle::join) {
+            Some(Ok(result)) => result,
+            Some(Err(_)) => Err(std::io::Error::other("the cell writer panicked")),
+            None => Err(std::io::Error::other("the cell writer stopped")),
+        }
+    }
+
+    /// Writes what is left and returns the tree and its cells.
+    pub(super) fn finish(mut self) -> std::io::Result<Cells> {
+        let batch = std::mem::take(&mut self.batch);
+        self.send(batch)?;
+        self.join()
+    }
+}
+
+/// The top of the kd-tree, chosen on a random sample of the samples.
+pub(super) enum TopTree {
+    Leaf(usize),
+    Split { axis: usize, at: f64, children: Box<[TopTree; 2]> },
+}
+
+impl TopTree {
+    pub(super) fn build(sample: &[DVec3], total: u64, max_expected: usize) -> Self {
+        let mut s = sample.to_vec();
+        let mut next = 0;
+        Self::rec(&mut s, total as f64 / sample.len().max(1) as f64, max_expected as f64, &mut next)
+    }
+
+    fn rec(s: &mut [DVec3], scale: f64, max_expected: f64, next: &mut usize) -> Self {
+        if (s.len() as f64) * scale <= max_expected || s.len() < 2 {
+            *next += 1;
+            return Self::Leaf(*next - 1);
+        }
+        let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+        for p in s.iter() {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        let axis = (hi - lo).max_position();
+        let mid = s.len() / 2;
+        s.select_nth_unstable_by(mid, |a, b| a[axis].total_cmp(&b[axis]));
+        let at = s[mid][axis];
+        let (l, r) = s.split_at_mut(mid);
+        let left = Self::rec(l, scale, max_expected, next);
+        let right = Self::rec(r, scale, max_expected, next);
+        Self::Split { axis, at, children: Box::new([left, right]) }
+    }
+
+    fn leaves(&self) -> usize {
+        match self {
+            Self::Leaf(i) => i + 1,
+            Self::Split { children, .. } => children[1].leaves(),
+        }
+    }
+
+    /// The leaves under this node: `first..end` (leaves are numbered left to right).
+    fn leaf_range(&self) -> (usize, usize) {
+        match self {
+            Self::Leaf(i) => (*i, i + 1),
+            Self::Split { children, .. } => (children[0].leaf_range().0, children[1].leaf_range().1),
+        }
+    }
+
+    fn locate(&self, p: DVec3) -> usize {
+        match self {
+            Self::Leaf(i) => *i,
+            Self::Split { axis, at, children } => children[usize::from(p[*axis] >= *at)].locate(p),
+        }
+    }
+}
+
+/// How the regions of an out-of-core build join: the kd-tree above them, its leaves the regions
+/// in the order [`Plan::new`] lists their files.
+pub(super) enum Plan {
+    Region,
+    Split(Box<[Plan; 2]>),
+}
+
+impl Plan {
+    /// Makes a region of every maximal subtree of `t` whose cells hold at most `limit` samples
+    /// together, appending its cells to `regions`; a single cell over the limit is split again
+    /// on a sample of its own and distributed to new cells.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn new(
+        t: &TopTree,
+        cells: &mut [Option<Cell>],
+        limit: u64,
+        params: &BuildParams,
+        tmp_dir: &Path,
+        progress: &mut dyn FnMut(Stage),
+        regions: &mut Vec<Vec<Cell>>,
+    ) -> Result<Self, BuildError> {
+        let (first, end) = t.leaf_range();
+        let n: u64 = cells[first..end].iter().flatten().map(|c| c.count).sum();
+        if n <= limit {
+            regions.push(cells[first..end].iter_mut().filter_map(Option::take).collect());
+            return Ok(Self::Region);
+        }
+        match t {
+            TopTree::Split { children, .. } => {
+                let l = Self::new(&children[0], cells, limit, params, tmp_dir, progress, regions)?;
+                let r = Self::new(&children[1], cells, limit, params, tmp_dir, progress, regions)?;
+                Ok(Self::Split(Box::new([l, r])))
+            }
+            TopTree::Leaf(i) => {
+                // The samples seen first did not show where the rest would go (a scan read in
+                // sweep order): this cell outgrew a region and is split on a sample of its own.
+                let cell = cells[*i].take().ok_or_else(|| std::io::Error::other("a cell was read twice"))?;
+                let sample = sample_file(cell.file.path(), params.sample_size, params.seed)?;
+                let sub = TopTree::build(&sample, n, limit as usize);
+                let sub_cells = distribute(cell.file.path(), sub, n, tmp_dir, progress)?;
+                drop(cell);
+                let (sub, sub_cells) = sub_cells;
+                if sub_cells.iter().any(|c| c.count == n) {
+                    // Nothing separates these samples (all at one position): one region.
+                    regions.push(sub_cells);
+                    return Ok(Self::Region);
+                }
+                let mut sub_cells: Vec<_> = sub_cells.into_iter().map(Some).collect();
+                Self::new(&sub, &mut sub_cells, limit, params, tmp_dir, progress, regions)
+            }
+        }
+    }
+}
+
+/// A seeded reservoir sample of at most `size` of the positions offered.
+pub(super) struct Reservoir {
+    pub(super) sample: Vec<DVec3>,
+    size: usize,
+    seen: u64,
+    rng: rand_pcg::Pcg64,
+}
+
+impl Reservoir {
+    pub(super) fn new(size: usize, seed: u64) -> Self {
+        Self { sample: Vec::new(), size, seen: 0, rng: rand_pcg::Pcg64::seed_from_u64(seed) }
+    }
+
+    pub(super) fn offer(&mut self, p: DVec3) {
+        self.seen += 1;
+        if self.sample.len() < self.size {
+            self.sample.push(p);
+        } else {
+            let j = self.rng.random_range(0..self.seen);
+            if (j as usize) < self.size {
+                self.sample[j as usize] = p;
+            }
+        }
+    }
+}
+
+/// Calls `f` with the samples of the file `path`, a batch at a time.
+fn for_each_batch(path: &Path, mut f: impl FnMut(Vec<RawRec>) -> std::io::Result<()>) -> std::io::Result<()> {
+    let mut file = File::open(path)?;
+    loop {
+        let mut buf = vec![RawRec::zeroed(); SPILL_BATCH];
+        let got =
+            crate::read_full(&mut file, bytemuck::cast_slice_mut(&mut buf))? / std::mem::size_of::<RawRec>();
+        if got == 0 {
+            return Ok(());
+        }
+        buf.truncate(got);
+        f(buf)?;
+    }
+}
+
+/// A seeded reservoir sample of at most `size` positions of a cell file.
+fn sample_file(path: &Path, size: usize, seed: u64) -> std::io::Result<Vec<DVec3>> {
+    let mut reservoir = Reservoir::new(size, seed);
+    for_each_batch(path, |batch| {
+        batch.iter().for_each(|rec| reservoir.offer(DVec3::from_array(rec.pos)));
+        Ok(())
+    })?;
+    Ok(reservoir.sample)
+}
+
+/// Distributes the samples of the file `input` (`total` of them) to new cells, one per leaf of
+/// `top`: this thread reads while the cell writer's thread sorts.
+fn distribute(
+    input: &Path,
+    top: TopTree,
+    total: u64,
+    tmp_dir: &Path,
+    progress: &mut dyn FnMut(Stage),
+) -> Result<Cells, BuildError> {
+    let mut writer = CellWriter::start(tmp_dir, top, Vec::new())?;
+    let mut done = 0u64;
+    for_each_batch(input, |batch| {
+        done += batch.len() as u64;
+        writer.send(batch)?;
+        progress(Stage::Distribute(done, total));
+        Ok(())
+    })?;
+    Ok(writer.finish()?)
+}
+
+/// The samples of one region: its cells, in order (in `recs`, whose contents are replaced).
+pub(super) fn read_region(cells: &[Cell], mut recs: Vec<RawRec>) -> std::io::Result<Vec<RawRec>> {
+    recs.clear();
+    recs.resize(cells.iter().map(|c| c.count as usize).sum(), RawRec::zeroed());
+    let mut at = 0;
+    for c in cells {
+        let len = c.count as usize;
+        File::open(c.file.path())?.read_exact(bytemuck::cast_slice_mut(&mut recs[at..at + len]))?;
+        at += len;
+    }
+    Ok(recs)
+}
