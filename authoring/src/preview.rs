@@ -32,7 +32,7 @@ pub fn simulate_walk(
     explorer.autopilot = true;
     let frames = (secs * settings.fps).ceil() as u64;
     for k in 0..=frames {
-        explorer.step(store, Some(graph), k as f64 / settings.fps);
+        explorer.step(k as f64 / settings.fps);
     }
     explorer.summary.nodes_displayed.clone()
 }

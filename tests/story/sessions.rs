@@ -355,12 +355,12 @@ struct Driven {
 
 /// Runs a script through an explorer (the replay's loop), keeping the cameras (the trace has no
 /// field of view) and the explorer at the end.
-fn drive(
-    ex: &Exhibit,
-    graph: &InfoGraph,
+fn drive<'a>(
+    ex: &'a Exhibit,
+    graph: &'a InfoGraph,
     settings: &ExploreSettings,
     script: &Script,
-) -> (Vec<Driven>, kiosk_core::explore::Explorer) {
+) -> (Vec<Driven>, kiosk_core::explore::Explorer<'a, memmap2::Mmap>) {
     let store = &ex.built.store;
     let session = script.session();
     let mut x = kiosk_core::explore::Explorer::new(store, Some(graph), settings, 0.0);
@@ -373,7 +373,7 @@ fn drive(
             x.touch(&session.events[next]);
             next += 1;
         }
-        let (frame, _) = x.step(store, Some(graph), t);
+        let (frame, _) = x.step(t);
         out.push(Driven { cam: x.camera(), frame });
     }
     (out, x)

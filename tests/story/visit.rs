@@ -232,19 +232,19 @@ fn a_view_chosen_in_the_radial_menu_does_not_stop_the_attract_tour() {
 }
 
 /// Drives a kiosk through a script like `run_session`, and hands the kiosk back.
-fn drive(
-    d: &Demo,
+fn drive<'a>(
+    d: &'a Demo,
     script: &Script,
     settings: &KioskSettings,
     extra: f64,
-) -> (Vec<KioskFrame>, kiosk_core::kiosk::Kiosk) {
-    let refs: Vec<ModelRef<'_, memmap2::Mmap>> = d
+) -> (Vec<KioskFrame>, kiosk_core::kiosk::Kiosk<'a, memmap2::Mmap>) {
+    let refs: Vec<ModelRef<'a, memmap2::Mmap>> = d
         .models
         .iter()
         .map(|(s, g)| ModelRef { store: s, graph: Some(g), up: glam::DVec3::Y, front: None })
         .collect();
     let session = script.session();
-    let mut kiosk = kiosk_core::kiosk::Kiosk::new(settings.clone(), refs.len(), 0.0);
+    let mut kiosk = kiosk_core::kiosk::Kiosk::new(settings.clone(), refs, 0.0);
     let dt = 1.0 / settings.explore.fps;
     let (mut next, mut frames) = (0, Vec::new());
     for k in 0..=((session.duration() + extra) * settings.explore.fps).ceil() as u64 {
@@ -253,7 +253,7 @@ fn drive(
             kiosk.touch(&session.events[next]);
             next += 1;
         }
-        frames.push(kiosk.step(&refs, t));
+        frames.push(kiosk.step(t));
     }
     (frames, kiosk)
 }

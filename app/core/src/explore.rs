@@ -2,6 +2,10 @@
 //! advanced one frame at a time at injected times. `replay` drives it from a session file; the
 //! kiosk drives it from a window's touch events. Both take exactly this path.
 //!
+//! An [`Explorer`] holds its scene, the model's store and its information graph if any, for its
+//! whole lifetime: they are given once to [`Explorer::new`], and each [`Explorer::step`] takes
+//! only the time.
+//!
 //! The projection: the configured field of view ([`ExploreSettings::fov_y`]) holds. When it is a
 //! real-scale projection ([`ExploreSettings::real_scale`]), it holds always: a go-to ends at the
 //! node's eye, target and up with the configured field of view, never the node's. Otherwise a
@@ -145,9 +149,11 @@ pub struct RadialMenu {
     pub pointing: Option<f64>,
 }
 
-/// The state of one exploration.
+/// The state of one exploration of one model, which it holds (store and graph) while it lives.
 #[derive(Clone, Debug)]
-pub struct Explorer {
+pub struct Explorer<'a, B: AsRef<[u8]>> {
+    store: &'a Store<B>,
+    graph: Option<&'a InfoGraph>,
     settings: ExploreSettings,
     rng: rand_pcg::Pcg64,
     cut: Cut,
@@ -175,11 +181,13 @@ pub struct Explorer {
     pub autopilot: bool,
 }
 
-impl Explorer {
-    /// Starts at the model's framing view; `now` is the clock of the recommender.
-    pub fn new<B: AsRef<[u8]>>(
-        store: &Store<B>,
-        graph: Option<&InfoGraph>,
+impl<'a, B: AsRef<[u8]>> Explorer<'a, B> {
+    /// Starts at the model's framing view, exploring `store` (with the recommender and the
+    /// radial menu when `graph` is given) for the explorer's lifetime; `now` is the clock of the
+    /// recommender.
+    pub fn new(
+        store: &'a Store<B>,
+        graph: Option<&'a InfoGraph>,
         settings: &ExploreSettings,
         now: f64,
     ) -> Self {
@@ -208,6 +216,8 @@ impl Explorer {
         };
         let start_light = crate::light::start_dir(&cam0);
         Self {
+            store,
+            graph,
             settings: *settings,
             rng: rand_pcg::Pcg64::seed_from_u64(settings.seed),
             cut,
@@ -358,12 +368,8 @@ impl Explorer {
 
     /// Advances one frame to time `t` (seconds, after the previous step) and returns the frame's
     /// trace line and the recommender's effects.
-    pub fn step<B: AsRef<[u8]>>(
-        &mut self,
-        store: &Store<B>,
-        graph: Option<&InfoGraph>,
-        t: f64,
-    ) -> (Frame, Vec<Effect>) {
+    pub fn step(&mut self, t: f64) -> (Frame, Vec<Effect>) {
+        let (store, graph) = (self.store, self.graph);
         let settings = &self.settings;
         let dt = 1.0 / settings.fps;
         let mut intent = self.gestures.frame(t, dt);

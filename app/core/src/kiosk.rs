@@ -9,6 +9,10 @@
 //! again, the visitor goes back to the gallery or the attract loop starts (which eases the
 //! light back to the start light; the reset starts the next visit with it).
 //!
+//! The kiosk holds its scene, the gallery's models ([`ModelRef`]: store, story, up axis and
+//! front), for its whole lifetime: they are given once to [`Kiosk::new`], and each exploration
+//! ([`Explorer`]) holds the one it explores.
+//!
 //! Pure like the rest of the core: the shell hands in touch events and times; the kiosk hands back
 //! what to draw and what to play. A recorded session replayed through [`run_session`] gives the
 //! same frames as the live kiosk did.
@@ -214,14 +218,14 @@ pub struct KioskFrame {
     pub effects: Vec<KioskEffect>,
 }
 
-/// The kiosk.
-pub struct Kiosk {
+/// The kiosk, over the models it holds while it lives.
+pub struct Kiosk<'a, B: AsRef<[u8]>> {
     /// Settings.
     pub settings: KioskSettings,
     mode: Mode,
     model: usize,
-    models: usize,
-    explorers: Vec<Option<Explorer>>,
+    models: Vec<ModelRef<'a, B>>,
+    explorers: Vec<Option<Explorer<'a, B>>>,
     lang: usize,
     help: bool,
     light_on: bool,
@@ -237,15 +241,16 @@ pub struct Kiosk {
     finished: Vec<VisitRecord>,
 }
 
-impl Kiosk {
-    /// A kiosk over `models` models, starting in the gallery at time `now`.
-    pub fn new(settings: KioskSettings, models: usize, now: f64) -> Self {
+impl<'a, B: AsRef<[u8]>> Kiosk<'a, B> {
+    /// A kiosk over `models` (the gallery, in order), starting in the gallery at time `now`.
+    pub fn new(settings: KioskSettings, models: Vec<ModelRef<'a, B>>, now: f64) -> Self {
+        let n = models.len();
         Self {
             settings,
             mode: Mode::Gallery,
             model: 0,
             models,
-            explorers: (0..models).map(|_| None).collect(),
+            explorers: (0..n).map(|_| None).collect(),
             lang: 0,
             help: false,
             light_on: false,
@@ -255,8 +260,8 @@ impl Kiosk {
             narrating: None,
             visits: 0,
             pending: Vec::new(),
-            stats: vec![ExhibitStats::default(); models],
-            observers: vec![Observer::default(); models],
+            stats: vec![ExhibitStats::default(); n],
+            observers: vec![Observer::default(); n],
             visit: None,
             finished: Vec::new(),
         }
@@ -286,17 +291,17 @@ impl Kiosk {
 
     /// Ends the visit in progress at `t` (the shell closes: [`VisitEnd::Exit`]), counting the
     /// display shown until then.
-    pub fn end_visit<B: AsRef<[u8]>>(&mut self, models: &[ModelRef<'_, B>], t: f64, how: VisitEnd) {
-        self.close_displays(models, t, true);
+    pub fn end_visit(&mut self, t: f64, how: VisitEnd) {
+        self.close_displays(t, true);
         self.finish_visit(t, how);
     }
 
     /// Ends the counting of displays of the models not being explored by a visitor (all: `all`).
-    fn close_displays<B: AsRef<[u8]>>(&mut self, models: &[ModelRef<'_, B>], t: f64, all: bool) {
+    fn close_displays(&mut self, t: f64, all: bool) {
         for (m, o) in self.observers.iter_mut().enumerate() {
             if o.counting()
                 && (all || m != self.model || self.mode != Mode::Explore)
-                && let Some(g) = models.get(m).and_then(|x| x.graph)
+                && let Some(g) = self.models.get(m).and_then(|x| x.graph)
             {
                 let visit = self.visit.as_mut().map(|v| v.model(m));
                 o.close(g, t, &mut self.stats[m], visit);
@@ -348,7 +353,7 @@ impl Kiosk {
     }
 
     /// The exploration of the current model, while exploring or attracting.
-    pub fn explorer(&self) -> Option<&Explorer> {
+    pub fn explorer(&self) -> Option<&Explorer<'a, B>> {
         match self.mode {
             Mode::Gallery => None,
             _ => self.explorers.get(self.model).and_then(Option::as_ref),
@@ -404,8 +409,10 @@ impl Kiosk {
                     v.language(&lang);
                 }
             }
-            ButtonKind::Previous => self.model = (self.model + self.models.max(1) - 1) % self.models.max(1),
-            ButtonKind::Next => self.model = (self.model + 1) % self.models.max(1),
+            ButtonKind::Previous => {
+                self.model = (self.model + self.models.len().max(1) - 1) % self.models.len().max(1)
+            }
+            ButtonKind::Next => self.model = (self.model + 1) % self.models.len().max(1),
             ButtonKind::Explore => self.mode = Mode::Explore,
         }
     }
@@ -579,7 +586,7 @@ impl Kiosk {
     }
 
     /// Advances to `t` (one frame of the exploration's clock after the previous step).
-    pub fn step<B: AsRef<[u8]>>(&mut self, models: &[ModelRef<'_, B>], t: f64) -> KioskFrame {
+    pub fn step(&mut self, t: f64) -> KioskFrame {
         self.now = t;
         let idle = t - self.last_input;
         let touched = !self.routes.is_empty();
@@ -602,7 +609,7 @@ impl Kiosk {
         }
         let mut frame = None;
         if self.mode != Mode::Gallery
-            && let Some(m) = models.get(self.model)
+            && let Some(m) = self.models.get(self.model)
         {
             let model = self.model;
             let slot = &mut self.explorers[model];
@@ -626,7 +633,7 @@ impl Kiosk {
                 x.autopilot = self.mode == Mode::Attract;
                 let before = x.recommender().map(|r| r.state);
                 let menus = x.summary.menu_requests;
-                let (f, effects) = x.step(m.store, m.graph, t);
+                let (f, effects) = x.step(t);
                 if let (Some(g), Some(before), Some(after)) =
                     (m.graph, before, x.recommender().map(|r| r.state))
                 {
@@ -651,7 +658,7 @@ impl Kiosk {
                 frame = Some(f);
             }
         }
-        self.close_displays(models, t, false);
+        self.close_displays(t, false);
         if let Some(how) = ended {
             self.finish_visit(t, how);
         }
@@ -686,14 +693,18 @@ pub fn run_session<B: AsRef<[u8]>>(
     settings: &KioskSettings,
     extra_secs: f64,
 ) -> Vec<KioskFrame> {
-    let mut kiosk = Kiosk::new(settings.clone(), models.len(), 0.0);
+    let held = models
+        .iter()
+        .map(|m| ModelRef { store: m.store, graph: m.graph, up: m.up, front: m.front })
+        .collect();
+    let mut kiosk = Kiosk::new(settings.clone(), held, 0.0);
     let mut clock = FixedClock::new(settings.explore.fps);
     let end = clock.time(clock.steps_for(session.duration() + extra_secs) - 1);
     let mut feed = SessionFeed::once();
     let mut out = Vec::new();
     while let Some(t) = clock.next_due(end) {
         feed.due(session, t, &mut |e| kiosk.touch(e));
-        out.push(kiosk.step(models, t));
+        out.push(kiosk.step(t));
     }
     out
 }

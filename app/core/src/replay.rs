@@ -45,7 +45,7 @@ pub fn run_story_with<B: AsRef<[u8]>>(
     let mut feed = SessionFeed::once();
     while let Some(t) = clock.next_due(end) {
         feed.due(session, t, &mut |e| explorer.touch(e));
-        frame(explorer.step(store, graph, t).0);
+        frame(explorer.step(t).0);
     }
     (explorer.controller_name(), explorer.summary)
 }

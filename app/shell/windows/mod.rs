@@ -180,14 +180,15 @@ pub fn kiosk_settings(config: &Config, size: (u32, u32), controller_aspect: f64,
 /// Runs the kiosk until the window closes (or the session ends).
 pub fn run(opts: RunOptions) -> anyhow::Result<()> {
     heap::settle();
+    // Loaded before the app, which borrows them: the kiosk holds its models while it lives.
     let exhibits = load_exhibits(&opts.config)?;
     let event_loop = EventLoop::new().context("cannot open the display (is DISPLAY set?)")?;
     event_loop.set_control_flow(ControlFlow::Poll);
-    let mut app = App { opts, exhibits, state: None, error: None };
+    let mut app = App { opts, exhibits: &exhibits, state: None, error: None };
     event_loop.run_app(&mut app)?;
     if let Some(s) = app.state.as_mut() {
         // The visit in progress ends with the kiosk; its statistics are kept.
-        s.persist(&app.exhibits, true);
+        s.persist(app.exhibits, true);
     }
     match app.error {
         Some(e) => Err(e),
@@ -195,15 +196,16 @@ pub fn run(opts: RunOptions) -> anyhow::Result<()> {
     }
 }
 
-struct App {
+struct App<'a> {
     opts: RunOptions,
-    exhibits: Vec<Exhibit>,
-    state: Option<Running>,
+    /// The gallery, loaded by [`run`] and borrowed by the kiosk for as long as the app lives.
+    exhibits: &'a [Exhibit],
+    state: Option<Running<'a>>,
     error: Option<anyhow::Error>,
 }
 
 /// Everything that exists once the windows are open.
-struct Running {
+struct Running<'a> {
     gpu: Gpu,
     projection: GpuWindow,
     controller: GpuWindow,
@@ -213,7 +215,7 @@ struct Running {
     ctrl_painter: Painter,
     inset: Canvas,
     inset_id: egui::TextureId,
-    kiosk: Kiosk,
+    kiosk: Kiosk<'a, memmap2::Mmap>,
     narrator: kiosk_content::audio::Narrator,
     start: Instant,
     /// Kiosk time of the last 60 Hz step.
@@ -243,8 +245,8 @@ struct Running {
     speed: f64,
 }
 
-impl App {
-    fn open(&mut self, el: &ActiveEventLoop) -> anyhow::Result<Running> {
+impl<'a> App<'a> {
+    fn open(&mut self, el: &ActiveEventLoop) -> anyhow::Result<Running<'a>> {
         let cfg = &self.opts.config;
         let monitors: Vec<_> = el.available_monitors().collect();
         let attrs = |title: &str, w: &config::WindowConfig, x: i32| {
@@ -321,9 +323,14 @@ impl App {
         let settings =
             kiosk_settings(cfg, projection.canvas.size, f64::from(ctrl.0) / f64::from(ctrl.1.max(1)), seed);
         let fps = settings.explore.fps;
-        let mut kiosk = Kiosk::new(settings, self.exhibits.len(), 0.0);
+        let exhibits: &'a [Exhibit] = self.exhibits;
+        let models = exhibits
+            .iter()
+            .map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref(), up: e.up, front: e.front })
+            .collect();
+        let mut kiosk = Kiosk::new(settings, models, 0.0);
         let state_dir = cfg.state_dir();
-        for (i, ex) in self.exhibits.iter().enumerate() {
+        for (i, ex) in exhibits.iter().enumerate() {
             let name = kiosk_content::stats::exhibit_name(&ex.dir);
             kiosk.set_stats(
                 i,
@@ -396,7 +403,7 @@ impl App {
     }
 }
 
-impl ApplicationHandler for App {
+impl ApplicationHandler for App<'_> {
     fn resumed(&mut self, el: &ActiveEventLoop) {
         if self.state.is_some() {
             return;
@@ -481,7 +488,7 @@ impl ApplicationHandler for App {
 
     fn about_to_wait(&mut self, el: &ActiveEventLoop) {
         let Some(s) = self.state.as_mut() else { return };
-        match s.tick(&self.opts, &self.exhibits) {
+        match s.tick(&self.opts, self.exhibits) {
             Ok(true) => {}
             Ok(false) => el.exit(),
             Err(e) => {
@@ -492,7 +499,7 @@ impl ApplicationHandler for App {
     }
 }
 
-impl Running {
+impl Running<'_> {
     /// Kiosk time now.
     fn kiosk_time(&self, speed: f64) -> f64 {
         self.start.elapsed().as_secs_f64() * speed.max(1e-3)
@@ -522,16 +529,12 @@ impl Running {
         let dt = self.clock.dt();
         let now = self.kiosk_time(opts.speed);
         let end = self.input.end(opts.run_for);
-        let models: Vec<ModelRef<'_, memmap2::Mmap>> = exhibits
-            .iter()
-            .map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref(), up: e.up, front: e.front })
-            .collect();
         let mut stepped = false;
         while let Some(t) = self.clock.next_due(now) {
             let kiosk = &mut self.kiosk;
             self.input.due(t, &mut |e| kiosk.touch(e));
             let before = self.kiosk.mode();
-            let frame = self.kiosk.step(&models, t);
+            let frame = self.kiosk.step(t);
             if before != Mode::Gallery
                 && frame.mode == Mode::Gallery
                 && frame.explore.is_none()
@@ -579,11 +582,7 @@ impl Running {
     /// statistics of the exhibits they explored. Only at a visit's end: not every frame.
     fn persist(&mut self, exhibits: &[Exhibit], exit: bool) {
         if exit {
-            let models: Vec<ModelRef<'_, memmap2::Mmap>> = exhibits
-                .iter()
-                .map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref(), up: e.up, front: e.front })
-                .collect();
-            self.kiosk.end_visit(&models, self.sim_t, kiosk_core::stats::VisitEnd::Exit);
+            self.kiosk.end_visit(self.sim_t, kiosk_core::stats::VisitEnd::Exit);
         }
         let visits = self.kiosk.take_visits();
         let mut touched = std::collections::BTreeSet::new();
