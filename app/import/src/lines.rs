@@ -10,9 +10,9 @@
 //! text file), not a reason to hold the file in memory. Tokens are separated by any whitespace,
 //! Unicode included (a no-break space). Numbers are read in the same pass that finds the end of
 //! their token: floats by `fast-float2`'s partial parse (the values `str::parse` gives; it still
-//! reads the tokens `fast-float2` refuses), integers of fewer than eight digits eight bytes at
-//! once (SWAR), longer ones digit by digit. Called from a rayon worker, a reader parses its
-//! blocks on the calling thread, without overlap, rather than wait on the pool it would starve.
+//! reads the tokens `fast-float2` refuses), integers digit by digit. Called from a rayon
+//! worker, a reader parses its blocks on the calling thread, without overlap, rather than wait
+//! on the pool it would starve.
 
 use std::io::BufRead;
 
@@ -330,65 +330,25 @@ impl<'a> Tokens<'a> {
 }
 
 /// The plain integer `b` starts with (optional sign, at most 18 digits: no overflow) and its
-/// length in bytes, read in one pass (eight digits at once); `None` when `b` starts with no
-/// digit after its sign. Whether the token ends there is the caller's to check.
+/// length in bytes, read in one pass, digit by digit; `None` when `b` starts with no digit after
+/// its sign. Whether the token ends there is the caller's to check.
 #[inline(always)]
 pub(crate) fn plain_int(b: &[u8]) -> Option<(i64, usize)> {
     let negative = b.first() == Some(&b'-');
     let digits = usize::from(matches!(b.first(), Some(b'-' | b'+')));
     let mut i = digits;
-    let mut v;
-    if let Some((value, n)) = leading_digits(&b[digits..]) {
-        // Up to 7 digits (indices and counts of most meshes): eight bytes at once.
-        v = value as i64;
-        i += n;
-    } else {
-        v = 0;
-        // At most 18 digits (no overflow); a longer run is no plain integer.
-        let most = b.len().min(digits + 18);
-        while i < most {
-            let d = b[i].wrapping_sub(b'0');
-            if d > 9 {
-                break;
-            }
-            v = v * 10 + i64::from(d);
-            i += 1;
+    let mut v = 0i64;
+    // At most 18 digits (no overflow); a longer run is no plain integer.
+    let most = b.len().min(digits + 18);
+    while i < most {
+        let d = b[i].wrapping_sub(b'0');
+        if d > 9 {
+            break;
         }
+        v = v * 10 + i64::from(d);
+        i += 1;
     }
     (i > digits).then_some((if negative { -v } else { v }, i))
-}
-
-/// The value and number of the decimal digits `b` starts with, read eight bytes at once
-/// (SWAR), when they are fewer than eight; `None` when there are eight or more (the caller reads
-/// them one by one).
-#[inline(always)]
-fn leading_digits(b: &[u8]) -> Option<(u64, usize)> {
-    // The first eight bytes, or the rest of the line padded with spaces (not digits).
-    let word = match b.first_chunk::<8>() {
-        Some(first) => u64::from_le_bytes(*first),
-        // Fewer than eight: shifted in last to first over eight spaces.
-        None => b.iter().rev().fold(0x2020_2020_2020_2020, |w, &c| w << 8 | u64::from(c)),
-    };
-    let t = word.wrapping_sub(0x3030_3030_3030_3030);
-    // The high bit of a byte is set for a byte that is not a digit: below '0' the subtraction
-    // wraps it past 0x80, above '9' adding 0x76 carries it there. Digits before it neither
-    // borrow nor carry, so the lowest set bit is the first byte that is not a digit.
-    let not_digit = (t | t.wrapping_add(0x7676_7676_7676_7676)) & 0x8080_8080_8080_8080;
-    if not_digit == 0 {
-        return None;
-    }
-    let len = not_digit.trailing_zeros() as usize / 8;
-    if len == 0 {
-        return Some((0, 0));
-    }
-    // The digits moved up to the high bytes: zeros before them, as leading zeros. Then pairs,
-    // quadruples and the eight combined (the first digit is the lowest byte: the most
-    // significant).
-    let d = t << (8 * (8 - len));
-    let d = ((d & 0x0f00_0f00_0f00_0f00) >> 8) + (d & 0x000f_000f_000f_000f) * 10;
-    let d = ((d & 0x00ff_0000_00ff_0000) >> 16) + (d & 0x0000_00ff_0000_00ff) * 100;
-    let d = ((d & 0x0000_ffff_0000_0000) >> 32) + (d & 0x0000_0000_0000_ffff) * 10000;
-    Some((d, len))
 }
 
 /// An `f64` as `str::parse` reads it (`nan` and `inf` included), by `fast-float2` straight from
