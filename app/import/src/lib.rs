@@ -3,7 +3,6 @@
 //! the store it writes is read by the pure core.
 
 pub mod build;
-pub mod direct;
 pub mod estimate;
 pub mod formats;
 mod lines;

@@ -1,18 +1,16 @@
 //! Text read in blocks of whole lines: the reading thread reads each block (inflated ahead on a
-//! thread of its own when gzip'd: `source::ReadAhead`), scans it for where its lines belong and
-//! hands it to a thread of its own to be parsed (in pieces on the rayon pool); a few blocks are
-//! in flight while the reading thread visits the oldest, in order. The ASCII PLY body and OBJ
-//! files are read this way; a format says how a block parses ([`Format`]) and its reader visits
-//! the results, so errors come in file order as a line-by-line reader would give them.
+//! thread of its own when gzip'd: `source::ReadAhead`), scans it for where its lines belong,
+//! parses it in pieces on the rayon pool and visits the result, one block after the other. The
+//! ASCII PLY body and OBJ files are read this way; a format says how a block parses
+//! ([`Format`]) and its reader visits the results, so errors come in file order as a
+//! line-by-line reader would give them.
 //!
 //! A block is 1 MiB of whole lines (a longer line grows its block), parsed in pieces of 8192
-//! lines, with three blocks in flight; a line of more than 64 MiB is an error (binary data in a
-//! text file), not a reason to hold the file in memory. Tokens are separated by any whitespace,
+//! lines; a line of more than 64 MiB is an error (binary data in a text file), not a reason to
+//! hold the file in memory. Tokens are separated by any whitespace,
 //! Unicode included (a no-break space). Numbers are read in the same pass that finds the end of
 //! their token: floats by `fast-float2`'s partial parse (the values `str::parse` gives; it still
-//! reads the tokens `fast-float2` refuses), integers of fewer than eight digits eight bytes at
-//! once (SWAR), longer ones digit by digit. Called from a rayon worker, a reader parses its
-//! blocks on the calling thread, without overlap, rather than wait on the pool it would starve.
+//! reads the tokens `fast-float2` refuses), integers digit by digit.
 
 use std::io::BufRead;
 
@@ -49,18 +47,10 @@ pub(crate) enum Stop {
     Overlong,
 }
 
-/// Blocks read and scanned ahead of the one being visited, each parsed on a thread of its own:
-/// the pool has the next blocks' pieces to parse while the reading thread visits one, scans the
-/// next or waits for the input.
-const IN_FLIGHT: usize = 3;
-
 /// Reads `r` to its end, calling `visit(block, parsed)` for each block in order, and returns
 /// where reading stands after the last. When reading fails, the lines read before are visited
 /// first and `stop` decides, given where reading stands: an error, or `Ok` where the format
 /// accepts that the input ends there (e.g. junk after the last PLY element).
-///
-/// Called from a rayon worker (whose blocking wait could starve the pool the pieces run on),
-/// blocks are parsed on the calling thread instead, without overlap.
 pub(crate) fn read<F: Format, E>(
     r: &mut (impl BufRead + ?Sized),
     format: &F,
@@ -68,74 +58,19 @@ pub(crate) fn read<F: Format, E>(
     mut visit: impl FnMut(&[u8], &mut F::Out) -> Result<(), E>,
     mut stop: impl FnMut(Stop, F::At) -> Result<F::At, E>,
 ) -> Result<F::At, E> {
-    struct Block<O> {
-        bytes: Vec<u8>,
-        out: O,
-    }
-    /// A block being parsed on a thread of its own, or parsed already (on the calling thread).
-    enum Parsing<H, P> {
-        Thread(H),
-        Done(P),
-    }
-    /// Why the blocks in flight could not all be visited.
-    enum Halt<E, A> {
-        /// A visit failed.
-        Visit(E),
-        /// The thread parsing the block that starts at this point panicked.
-        Panic(A),
-    }
-    /// The blocks in flight, oldest first: where reading stood before each, and its parse.
-    type Flight<'s, A, O> =
-        std::collections::VecDeque<(A, Parsing<std::thread::ScopedJoinHandle<'s, Block<O>>, Block<O>>)>;
-    let inline = rayon::current_thread_index().is_some();
     let mut source = Source { carry: Vec::new(), failed: None };
-    std::thread::scope(|s| {
-        let mut spares: Vec<Block<F::Out>> = Vec::new();
-        let mut flight: Flight<'_, F::At, F::Out> = std::collections::VecDeque::with_capacity(IN_FLIGHT + 1);
-        // Joins the oldest blocks in flight and visits them, until `keep` remain; their buffers
-        // are used again.
-        let mut land = |flight: &mut Flight<'_, F::At, F::Out>,
-                        spares: &mut Vec<Block<F::Out>>,
-                        keep: usize|
-         -> Result<(), Halt<E, F::At>> {
-            while flight.len() > keep
-                && let Some((from, parsing)) = flight.pop_front()
-            {
-                let mut done = match parsing {
-                    Parsing::Thread(thread) => thread.join().map_err(|_| Halt::Panic(from))?,
-                    Parsing::Done(block) => block,
-                };
-                visit(&done.bytes, &mut done.out).map_err(Halt::Visit)?;
-                spares.push(done);
-            }
-            Ok(())
+    // The block's buffer and what it parses into are used again for the next block.
+    let (mut bytes, mut out) = (Vec::new(), F::Out::default());
+    loop {
+        bytes = match source.next_block(r, bytes) {
+            Ok(Some(bytes)) => bytes,
+            Ok(None) => return Ok(at),
+            Err(e) => return stop(e, at),
         };
-        let result = loop {
-            let spare = spares.pop().unwrap_or_else(|| Block { bytes: Vec::new(), out: F::Out::default() });
-            let bytes = match source.next_block(r, spare.bytes) {
-                Ok(Some(bytes)) => bytes,
-                // The blocks read before the end or the failure are visited first.
-                end => break land(&mut flight, &mut spares, 0).map(|()| end.map(|_| ())),
-            };
-            let (from, mut out) = (at, spare.out);
-            at = format.scan(&bytes, at, &mut out);
-            let job = move || {
-                format.parse(&bytes, &mut out);
-                Block { bytes, out }
-            };
-            flight
-                .push_back((from, if inline { Parsing::Done(job()) } else { Parsing::Thread(s.spawn(job)) }));
-            if let Err(h) = land(&mut flight, &mut spares, if inline { 0 } else { IN_FLIGHT }) {
-                break Err(h);
-            }
-        };
-        match result {
-            Ok(Ok(())) => Ok(at),
-            Ok(Err(e)) => stop(e, at),
-            Err(Halt::Visit(e)) => Err(e),
-            Err(Halt::Panic(from)) => stop(Stop::Io(std::io::Error::other("a parser thread panicked")), from),
-        }
-    })
+        at = format.scan(&bytes, at, &mut out);
+        format.parse(&bytes, &mut out);
+        visit(&bytes, &mut out)?;
+    }
 }
 
 /// The input, read in blocks of whole lines.
@@ -330,65 +265,25 @@ impl<'a> Tokens<'a> {
 }
 
 /// The plain integer `b` starts with (optional sign, at most 18 digits: no overflow) and its
-/// length in bytes, read in one pass (eight digits at once); `None` when `b` starts with no
-/// digit after its sign. Whether the token ends there is the caller's to check.
+/// length in bytes, read in one pass, digit by digit; `None` when `b` starts with no digit after
+/// its sign. Whether the token ends there is the caller's to check.
 #[inline(always)]
 pub(crate) fn plain_int(b: &[u8]) -> Option<(i64, usize)> {
     let negative = b.first() == Some(&b'-');
     let digits = usize::from(matches!(b.first(), Some(b'-' | b'+')));
     let mut i = digits;
-    let mut v;
-    if let Some((value, n)) = leading_digits(&b[digits..]) {
-        // Up to 7 digits (indices and counts of most meshes): eight bytes at once.
-        v = value as i64;
-        i += n;
-    } else {
-        v = 0;
-        // At most 18 digits (no overflow); a longer run is no plain integer.
-        let most = b.len().min(digits + 18);
-        while i < most {
-            let d = b[i].wrapping_sub(b'0');
-            if d > 9 {
-                break;
-            }
-            v = v * 10 + i64::from(d);
-            i += 1;
+    let mut v = 0i64;
+    // At most 18 digits (no overflow); a longer run is no plain integer.
+    let most = b.len().min(digits + 18);
+    while i < most {
+        let d = b[i].wrapping_sub(b'0');
+        if d > 9 {
+            break;
         }
+        v = v * 10 + i64::from(d);
+        i += 1;
     }
     (i > digits).then_some((if negative { -v } else { v }, i))
-}
-
-/// The value and number of the decimal digits `b` starts with, read eight bytes at once
-/// (SWAR), when they are fewer than eight; `None` when there are eight or more (the caller reads
-/// them one by one).
-#[inline(always)]
-fn leading_digits(b: &[u8]) -> Option<(u64, usize)> {
-    // The first eight bytes, or the rest of the line padded with spaces (not digits).
-    let word = match b.first_chunk::<8>() {
-        Some(first) => u64::from_le_bytes(*first),
-        // Fewer than eight: shifted in last to first over eight spaces.
-        None => b.iter().rev().fold(0x2020_2020_2020_2020, |w, &c| w << 8 | u64::from(c)),
-    };
-    let t = word.wrapping_sub(0x3030_3030_3030_3030);
-    // The high bit of a byte is set for a byte that is not a digit: below '0' the subtraction
-    // wraps it past 0x80, above '9' adding 0x76 carries it there. Digits before it neither
-    // borrow nor carry, so the lowest set bit is the first byte that is not a digit.
-    let not_digit = (t | t.wrapping_add(0x7676_7676_7676_7676)) & 0x8080_8080_8080_8080;
-    if not_digit == 0 {
-        return None;
-    }
-    let len = not_digit.trailing_zeros() as usize / 8;
-    if len == 0 {
-        return Some((0, 0));
-    }
-    // The digits moved up to the high bytes: zeros before them, as leading zeros. Then pairs,
-    // quadruples and the eight combined (the first digit is the lowest byte: the most
-    // significant).
-    let d = t << (8 * (8 - len));
-    let d = ((d & 0x0f00_0f00_0f00_0f00) >> 8) + (d & 0x000f_000f_000f_000f) * 10;
-    let d = ((d & 0x00ff_0000_00ff_0000) >> 16) + (d & 0x0000_00ff_0000_00ff) * 100;
-    let d = ((d & 0x0000_ffff_0000_0000) >> 32) + (d & 0x0000_0000_0000_ffff) * 10000;
-    Some((d, len))
 }
 
 /// An `f64` as `str::parse` reads it (`nan` and `inf` included), by `fast-float2` straight from

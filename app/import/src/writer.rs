@@ -4,20 +4,18 @@
 //!
 //! [`NodeSink`] runs the writer on a thread of its own: nodes get their ids before they are made,
 //! are sent from any thread as they are completed and are written in id order while the build
-//! goes on. The bytes go through [`crate::direct::SequentialFile`]: around the page cache
-//! (`O_DIRECT`) where the file system allows it, each full 4 MiB block synced at once, so the
-//! final sync waits for one block's worth rather than the whole store's.
+//! goes on. The bytes go through an ordinary buffered file (the page cache); the store is synced
+//! once, at the end.
 
-use crate::direct::SequentialFile;
 use kiosk_core::scene::boxtree::box_count;
 use kiosk_core::scene::store::{self, NONE, NodeRecord, StoreHeader};
 use kiosk_core::{Aabb, Splat};
-use std::io::{Seek, SeekFrom, Write};
+use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 /// A store being written.
 pub struct StoreWriter {
-    out: SequentialFile,
+    out: BufWriter<std::fs::File>,
     tmp_path: PathBuf,
     final_path: PathBuf,
     offset: u64,
@@ -52,7 +50,7 @@ impl StoreWriter {
         let mut tmp = path.as_os_str().to_owned();
         tmp.push(".partial");
         let tmp_path = PathBuf::from(tmp);
-        let mut out = SequentialFile::create(&tmp_path)?;
+        let mut out = BufWriter::new(std::fs::File::create(&tmp_path)?);
         out.write_all(&[0u8; StoreHeader::LEN])?;
         Ok(Self {
             out,
@@ -170,7 +168,8 @@ impl StoreWriter {
             header_crc: 0,
         }
         .seal();
-        let file = self.out.finish()?;
+        self.out.flush()?;
+        let file = self.out.get_mut();
         file.seek(SeekFrom::Start(0))?;
         file.write_all(bytemuck::bytes_of(&header))?;
         file.sync_all()?;

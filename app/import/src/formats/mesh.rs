@@ -1,14 +1,12 @@
 //! What a mesh's faces give its vertices: an area-weighted normal, a radius at least the
-//! circumradius of their triangles (so the splats cover the mesh without holes) and a spacing,
-//! the side of a third of their triangles' area (so a mesh needs no neighbour search). When the
-//! vertices come first and bring no normals (the common layout), each triangle is applied as it
-//! is read, its terms summed into its vertices' own fields (the normal sums area-weighted
-//! normals, the radius holds the largest circumradius², the spacing twice the summed area until
-//! [`Buffered::finish`] turns them into their final meaning), and never kept; otherwise the
-//! triangles are kept and applied once every vertex is there, in parallel by vertex range, each
-//! range taking its triangles in file order, so both ways give the same values. A dropped vertex
-//! keeps its place, so the face indices after it stay right; its triangles give nothing to their
-//! other vertices.
+//! circumradius of their triangles (so the splats cover the mesh without holes) and a spacing, the
+//! side of a third of their triangles' area (so a mesh needs no neighbour search). When the
+//! vertices come first and bring no normals (the common layout), each triangle is applied as it is
+//! read, its terms summed into a sum per vertex ([`Terms`], turned into the vertex's normal, radius
+//! and spacing by [`Buffered::finish`]), and never kept; otherwise the triangles are kept and
+//! applied once every vertex is there, in parallel by vertex range, each range taking its triangles
+//! in file order, so both ways give the same values. A dropped vertex keeps its place, so the face
+//! indices after it stay right; its triangles give nothing to their other vertices.
 
 use super::surface::{NO_MATERIAL, SampleParams, Surface, Tri, linear_color};
 use crate::source::{InputPoint, ReadError, ReadReport, Sink};
@@ -36,6 +34,9 @@ pub(crate) struct Buffered {
     pub(crate) big: Vec<[u32; 3]>,
     /// The squared circumradius above which a triangle is sampled on its surface, once known.
     pub(crate) big_r2: Option<f64>,
+    /// What each vertex sums of the triangles applied as they come ([`Buffered::accumulate`]),
+    /// by vertex index.
+    pub(crate) sums: Vec<Terms>,
 }
 
 /// How a mesh without materials fills its large triangles: a triangle whose circumradius is
@@ -76,15 +77,15 @@ impl Buffered {
         Ok(())
     }
 
-    /// Adds the terms of `tris`, read after every vertex, to the vertices they touch, in the
-    /// vertices' own fields: the normal sums the area-weighted normals, the radius keeps the
-    /// largest circumradius², the spacing sums twice the areas ([`Buffered::finish`] turns them
-    /// into the normal, radius and spacing [`apply_triangles`] gives). For a mesh whose vertices
-    /// come first and have no normals of their own, the common layout: its triangles are applied
-    /// in file order as they are read and never kept, and the vertices need no other buffer.
+    /// Adds the terms of `tris`, read after every vertex, to the sums of the vertices they touch
+    /// ([`Buffered::sums`]; [`Buffered::finish`] turns them into the normal, radius and spacing
+    /// [`apply_triangles`] gives). For a mesh whose vertices come first and have no normals of
+    /// their own, the common layout: its triangles are applied in file order as they are read
+    /// and never kept.
     pub(crate) fn accumulate(&mut self, tris: &[[u32; 3]]) {
         let big_r2 = self.big_r2();
-        let points = &mut self.points;
+        let points = &self.points;
+        self.sums.resize(points.len(), Terms::default());
         for t in tris {
             // Indices were checked against the vertices, all read, when the face was converted.
             let (Some(a), Some(b), Some(c)) = t.map(|i| points.get(i as usize).map(|p| p.pos)).into() else {
@@ -96,10 +97,7 @@ impl Buffered {
                 continue;
             }
             for &i in t {
-                let p = &mut points[i as usize];
-                let mut sum = Terms::kept_in(p);
-                sum.add(terms);
-                sum.keep_in(p);
+                self.sums[i as usize].add(terms);
             }
         }
     }
@@ -150,8 +148,8 @@ impl Buffered {
         let surface = (!self.big.is_empty()).then(|| self.big_surface(report));
         if self.streamed {
             use rayon::prelude::*;
-            self.points.par_iter_mut().for_each(|p| {
-                let sum = Terms::kept_in(p);
+            self.sums.resize(self.points.len(), Terms::default());
+            self.points.par_iter_mut().zip(std::mem::take(&mut self.sums)).for_each(|(p, sum)| {
                 (p.normal, p.radius, p.spacing) = (sum.normal(), sum.radius(), sum.spacing());
             });
         } else if !self.tris.is_empty() {
@@ -291,9 +289,7 @@ pub(crate) fn apply_triangles(points: &mut [InputPoint], tris: &[[u32; 3]]) {
 
 /// What a vertex sums of its triangles, in file order: their area-weighted normals, the largest
 /// of their circumradii², twice their areas. In `f32`, the precision of what they become (the
-/// terms of a triangle are computed in `f64`, from its vertices' `f64` positions): a vertex's
-/// sum takes the same 20 bytes as the normal, radius and spacing it ends as, which is where a
-/// streamed mesh keeps it ([`Buffered::accumulate`]).
+/// terms of a triangle are computed in `f64`, from its vertices' `f64` positions).
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Terms {
     normal: Vec3,
@@ -302,18 +298,6 @@ pub(crate) struct Terms {
 }
 
 impl Terms {
-    /// The sum a streamed vertex keeps in its normal, radius and spacing.
-    #[inline]
-    pub(crate) fn kept_in(p: &InputPoint) -> Self {
-        Self { normal: p.normal, r2: p.radius, area2: p.spacing }
-    }
-
-    /// Keeps the sum in the vertex's normal, radius and spacing ([`Terms::kept_in`] reads it).
-    #[inline]
-    pub(crate) fn keep_in(self, p: &mut InputPoint) {
-        (p.normal, p.radius, p.spacing) = (self.normal, self.r2, self.area2);
-    }
-
     #[inline]
     pub(crate) fn add(&mut self, t: Terms) {
         self.normal += t.normal;

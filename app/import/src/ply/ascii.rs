@@ -271,7 +271,7 @@ impl Fast {
     }
 
     /// Reads the line of `len` bytes that `text` starts with (and runs on past: the rest of its
-    /// block, which numbers are read in eight bytes at a time; the line end stops them) into
+    /// block, which a number's parse may look into; the line end stops it) into
     /// `row` (sized for the element). False when the line is not one for the fast path (the
     /// row is then partly written, and [`parse_line`] writes it again).
     fn read(&self, text: &[u8], len: usize, row: &mut Row) -> bool {
