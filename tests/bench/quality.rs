@@ -243,9 +243,7 @@ fn plot(rows: &[Row], tolerance: &[ToleranceSeries], out_dir: &Path) -> anyhow::
     chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw()?;
     root.present()?;
     drop(root);
-    // A PNG beside it, to look at without an SVG viewer.
-    let png = svg.with_extension("png");
-    kiosk_content::media::svg_to_rgba(&std::fs::read(&svg)?).map_err(anyhow::Error::msg)?.save(&png)?;
+    let png = kiosk_testkit::png_beside(&svg)?;
     println!("\nplot: {} ({})", svg.display(), png.display());
     Ok(())
 }

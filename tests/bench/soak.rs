@@ -195,8 +195,7 @@ fn plot(series: &[Sample], hours: f64, speed: f64) -> anyhow::Result<()> {
     draw(&panels[2], "state directory (kB)", &|s| s.state / 1024.0, RGBColor(0, 130, 0))?;
     root.present()?;
     drop(root);
-    let png = svg.with_extension("png");
-    kiosk_content::media::svg_to_rgba(&std::fs::read(&svg)?).map_err(anyhow::Error::msg)?.save(&png)?;
+    let png = kiosk_testkit::png_beside(&svg)?;
     println!("plot: {} ({})", svg.display(), png.display());
     Ok(())
 }

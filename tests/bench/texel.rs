@@ -158,8 +158,7 @@ fn plot(rows: &[Row], out_dir: &Path) -> anyhow::Result<()> {
     chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw()?;
     root.present()?;
     drop(root);
-    let png = svg.with_extension("png");
-    kiosk_content::media::svg_to_rgba(&std::fs::read(&svg)?).map_err(anyhow::Error::msg)?.save(&png)?;
+    let png = kiosk_testkit::png_beside(&svg)?;
     println!("plot: {} ({})", svg.display(), png.display());
     Ok(())
 }

@@ -29,6 +29,14 @@ pub struct InputPoint {
     pub spacing: f32,
 }
 
+impl InputPoint {
+    /// A point of a cloud (a survey scan): its position and colour; its normal and the area it
+    /// covers are estimated from its neighbours.
+    pub fn at(pos: DVec3, color: [u8; 4]) -> Self {
+        Self { pos, normal: Vec3::ZERO, color, radius: 0.0, spacing: 0.0 }
+    }
+}
+
 /// Options of the readers.
 #[derive(Clone, Copy, Debug)]
 pub struct ReadOptions {

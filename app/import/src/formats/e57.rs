@@ -4,7 +4,7 @@
 //! one model. Normals and spacings are estimated by the builder.
 
 use crate::source::{InputPoint, ReadReport, Sink};
-use glam::{DVec3, Vec3};
+use glam::DVec3;
 use std::path::Path;
 
 /// Why an E57 file cannot be read: the reader's own errors, or `E`, the error of the consumer
@@ -93,13 +93,7 @@ fn read_guarded<E>(path: &Path, sink: &mut dyn Sink<Error = E>) -> Result<ReadRe
                 }
                 (None, None) => [0; 4],
             };
-            out.push(InputPoint {
-                pos: DVec3::new(x, y, z),
-                normal: Vec3::ZERO,
-                color,
-                radius: 0.0,
-                spacing: 0.0,
-            });
+            out.push(InputPoint::at(DVec3::new(x, y, z), color));
             if out.len() == CHUNK {
                 report.points += out.len() as u64;
                 sink.points(std::mem::replace(&mut out, Vec::with_capacity(CHUNK)))

@@ -6,7 +6,7 @@
 //! same way (a file whose first points have neither is left without colour). Normals and spacings are estimated by the builder.
 
 use crate::source::{InputPoint, ReadReport, Sink};
-use glam::{DVec3, Vec3};
+use glam::DVec3;
 use std::path::Path;
 
 /// Why a LAS or LAZ file cannot be read: the reader's own errors, or `E`, the error of the
@@ -277,13 +277,7 @@ fn points<E>(
         if !(x.is_finite() && y.is_finite() && z.is_finite()) {
             return Err(LasError::NonFinite { index: *index, x, y, z });
         }
-        out.push(InputPoint {
-            pos: DVec3::new(x, y, z),
-            normal: Vec3::ZERO,
-            color,
-            radius: 0.0,
-            spacing: 0.0,
-        });
+        out.push(InputPoint::at(DVec3::new(x, y, z), color));
     }
     Ok(out)
 }
