@@ -63,9 +63,9 @@ pub fn read<E>(path: &Path, sink: &mut dyn Sink<Error = E>) -> Result<ReadReport
 /// Checks the lengths in a LAS header against the file's size before the `las` crate allocates
 /// by them (a corrupted length would ask for gigabytes and abort the process): the header,
 /// the variable-length records, the point data of an uncompressed file, and the extended
-/// records of LAS 1.4. Returns where the point data starts when the file's LAZ chunk table was
-/// found and its count checked (the only case in which its chunks may be decoded in parallel).
-fn check_lengths<E>(path: &Path) -> Result<Option<u64>, LasError<E>> {
+/// records of LAS 1.4. Returns whether a LAZ file's chunks may be decoded in parallel
+/// ([`check_chunk_table`]).
+fn check_lengths<E>(path: &Path) -> Result<bool, LasError<E>> {
     use std::io::{Read, Seek, SeekFrom};
     let bad = |why: String| LasError::Corrupt(format!("the header is inconsistent with the file: {why}"));
     let mut f = std::fs::File::open(path).map_err(|e| LasError::Las(e.into()))?;
@@ -105,7 +105,7 @@ fn check_lengths<E>(path: &Path) -> Result<Option<u64>, LasError<E>> {
         return Err(bad(format!("{} points of {record_len} bytes overflow the file's offsets", u64_at(247))));
     }
     let compressed = format & 0x80 != 0 || format & 0x40 != 0;
-    let table_checked = compressed && check_chunk_table(&mut f, offset, size)?;
+    let parallel = compressed && check_chunk_table(&mut f, offset, size)?;
     let points = if minor >= 4 && n >= 255 { u64_at(247) } else { u64::from(u32_at(107)) };
     if !compressed
         && points.checked_mul(record_len).and_then(|b| b.checked_add(offset)).is_none_or(|end| end > size)
@@ -130,7 +130,7 @@ fn check_lengths<E>(path: &Path) -> Result<Option<u64>, LasError<E>> {
             )?;
         }
     }
-    Ok(table_checked.then_some(offset))
+    Ok(parallel)
 }
 
 /// The smallest point record (format 0), in bytes. Each chunk of a LAZ file starts with its
@@ -145,7 +145,13 @@ const MIN_RECORD: u64 = 20;
 /// records: where it starts them need not be where the header's size says); the table's place
 /// as the decoder finds it: the 8 bytes at the start of the point data, else the file's last 8
 /// bytes. A table that is not in the file is left to the decoder, which reports it (or, for
-/// fixed-size chunks, reads without it). Returns whether a table was found and checked.
+/// fixed-size chunks, reads without it).
+///
+/// Returns whether the chunks may be decompressed in parallel (several at once, on the pool):
+/// only once the count is checked is the table read as the decoder reads it (the parallel
+/// decoder allocates by it), and then the chunks must fit in the file and none may hold more
+/// than [`PARALLEL_CHUNK_POINTS`]. Any other file is decompressed on one thread, chunk by
+/// chunk, as the decoder always did. Figures in docs/performance.md (Survey formats).
 fn check_chunk_table<E>(f: &mut std::fs::File, data_start: u64, size: u64) -> Result<bool, LasError<E>> {
     use std::io::{Read, Seek, SeekFrom};
     f.seek(SeekFrom::Start(0)).map_err(|e| LasError::Las(e.into()))?;
@@ -179,44 +185,25 @@ fn check_chunk_table<E>(f: &mut std::fs::File, data_start: u64, size: u64) -> Re
              of compressed points before it can hold ({MIN_RECORD} bytes at least each)"
         )));
     }
-    Ok(true)
+    // The table's offset is at the start of the point data (not necessarily where the header
+    // and its records end).
+    let mut parallel = || -> Option<bool> {
+        f.seek(SeekFrom::Start(data_start)).ok()?;
+        let table =
+            ::laz::laszip::ChunkTable::read_from(std::io::BufReader::new(&mut *f), &header.laz_vlr().ok()?)
+                .ok()?;
+        let chunks: &[::laz::laszip::ChunkTableEntry] = table.as_ref();
+        let bytes = chunks.iter().try_fold(0u64, |sum, c| sum.checked_add(c.byte_count))?;
+        Some(bytes <= size && chunks.iter().all(|c| c.point_count <= PARALLEL_CHUNK_POINTS))
+    };
+    Ok(parallel().unwrap_or(false))
 }
 
 /// Most points a LAZ chunk may hold for the file to be decompressed in parallel.
 const PARALLEL_CHUNK_POINTS: u64 = 1 << 20;
 
-/// Whether a LAZ file's chunks may be decompressed in parallel (several chunks at once, on the
-/// pool): its chunk table's count was checked against the file ([`check_chunk_table`]: `data`
-/// is where the point data starts), the chunks fit in the file and none holds more than
-/// [`PARALLEL_CHUNK_POINTS`]. The table is read from `data` as the decoder reads it, and only
-/// once its count is known to be sound: the decoder reserves memory by it. Any other file is
-/// decompressed on one thread, chunk by chunk, as the decoder always did. Figures in
-/// docs/performance.md (Survey formats).
-fn laz_in_parallel(path: &Path, data: Option<u64>) -> bool {
-    use std::io::{Seek, SeekFrom};
-    let check = || -> Option<bool> {
-        let data = data?;
-        let size = std::fs::metadata(path).ok()?.len();
-        let mut f = std::io::BufReader::new(std::fs::File::open(path).ok()?);
-        let header = ::las::Header::new(&mut f).ok()?;
-        if !header.point_format().is_compressed {
-            return Some(false);
-        }
-        // The table's offset is at the start of the point data (not necessarily where the
-        // header and its records end).
-        f.seek(SeekFrom::Start(data)).ok()?;
-        let table = ::laz::laszip::ChunkTable::read_from(&mut f, &header.laz_vlr().ok()?).ok()?;
-        let chunks: &[::laz::laszip::ChunkTableEntry] = table.as_ref();
-        let bytes = chunks.iter().try_fold(0u64, |sum, c| sum.checked_add(c.byte_count))?;
-        Some(bytes <= size && chunks.iter().all(|c| c.point_count <= PARALLEL_CHUNK_POINTS))
-    };
-    check().unwrap_or(false)
-}
-
 fn read_guarded<E>(path: &Path, sink: &mut dyn Sink<Error = E>) -> Result<ReadReport, LasError<E>> {
-    let table = check_lengths(path)?;
-    let parallel =
-        if laz_in_parallel(path, table) { ::las::LazParallelism::Yes } else { ::las::LazParallelism::No };
+    let parallel = if check_lengths(path)? { ::las::LazParallelism::Yes } else { ::las::LazParallelism::No };
     let options = ::las::ReaderOptions::default().with_laz_parallelism(parallel);
     let file = std::fs::File::open(path).map_err(|e| LasError::Las(e.into()))?;
     let mut reader = ::las::Reader::with_options(std::io::BufReader::new(file), options)?;
