@@ -251,6 +251,12 @@ struct MeshOut {
     @location(2) color: vec4<f32>,
 };
 
+// A mesh's interpolated normal turned toward the eye; a degenerate one faces the eye.
+fn mesh_normal(normal: vec3<f32>, to_point: vec3<f32>) -> vec3<f32> {
+    let l = length(normal);
+    return select(-frame.view_dir.xyz, facing(normal / l, to_point), l > 1e-12);
+}
+
 @vertex
 fn vs_mesh(v: MeshIn) -> MeshOut {
     let p = v.pos + frame.offset.xyz;
@@ -264,8 +270,7 @@ fn vs_mesh(v: MeshIn) -> MeshOut {
 
 @fragment
 fn fs_mesh(in: MeshOut) -> @location(0) vec4<f32> {
-    let l = length(in.normal);
-    let n = select(-frame.view_dir.xyz, facing(in.normal / l, in.to_point), l > 1e-12);
+    let n = mesh_normal(in.normal, in.to_point);
     return shade(base_color(in.color), n);
 }
 
@@ -300,8 +305,7 @@ fn vs_mesh_textured(v: TexturedIn) -> TexturedOut {
 
 @fragment
 fn fs_mesh_textured(in: TexturedOut) -> @location(0) vec4<f32> {
-    let l = length(in.normal);
-    let n = select(-frame.view_dir.xyz, facing(in.normal / l, in.to_point), l > 1e-12);
+    let n = mesh_normal(in.normal, in.to_point);
     // The texture's format is sRGB: the sample is already linear light.
     return shade(textureSample(mesh_texture, mesh_sampler, in.uv).rgb, n);
 }
