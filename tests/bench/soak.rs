@@ -4,8 +4,10 @@
 //! H hours of kiosk time at an accelerated clock (S×), and reports, every 300 s of kiosk time, its
 //! resident memory, its open file descriptors and the size of its state directory (the visit
 //! statistics and the rotated visit log). Goals: memory and open files within 5 % from the end of
-//! the warm-up (`--warmup`, default 900 s of kiosk time) to the end; the state directory within
-//! its bound (the log's rotation limit plus the statistics). Plot: target/bench/soak.svg (.png).
+//! the warm-up (`--warmup`, default 900 s of kiosk time) to the end — memory as the lowest and the
+//! highest RSS of a window of samples, the first after the warm-up against the last (one sample
+//! depends on what the screen shows at that moment); the state directory within its bound (the
+//! log's rotation limit plus the statistics). Plot: target/bench/soak.svg (.png).
 //!
 //! The clock only decides how much kiosk time each drawn frame covers: the core steps at its fixed
 //! rate whatever the speed, so a month at 3000× plays every visit, attract loop and reset, with
@@ -97,13 +99,41 @@ fn main() {
         "| kiosk time | clock speed | quantity | after warm-up ({warmup:.0} s) | at the end | highest after warm-up | change | goal |"
     );
     println!("|---|---|---|---|---|---|---|---|");
+    // One sample is a moment of the visit loop: a large model explored holds its nodes in the
+    // driver's memory, the gallery does not. The envelope of a window of samples is what is
+    // compared: the lowest and the highest RSS of the first window after the warm-up against
+    // those of the last window (each a tenth of the time after the warm-up, at least an hour).
+    let span = series.last().map_or(0.0, |s| s.t) - warmup;
+    let width = (0.1 * span).max(3600.0);
+    let window = |lo: f64, hi: f64| {
+        let v: Vec<f64> = after.iter().filter(|s| s.t >= lo && s.t <= hi).map(|s| s.rss_kb).collect();
+        (v.iter().copied().fold(f64::INFINITY, f64::min), v.iter().copied().fold(0.0, f64::max))
+    };
+    let end = warmup + span;
+    let (first_lo, first_hi) = window(warmup, warmup + width);
+    let (last_lo, last_hi) = window(end - width, end);
+    let (lo_change, hi_change) = (pct(first_lo, last_lo), pct(first_hi, last_hi));
+    println!(
+        "| {hours} h | {speed}× | RSS, lowest of a window of {:.1} h | {:.1} MB | {:.1} MB | — | {lo_change:+.1} % | {} (≤ 5 %) |",
+        width / 3600.0,
+        first_lo / 1024.0,
+        last_lo / 1024.0,
+        goal(lo_change.abs() <= 5.0)
+    );
+    println!(
+        "| {hours} h | {speed}× | RSS, highest of a window of {:.1} h | {:.1} MB | {:.1} MB | {:.1} MB | {hi_change:+.1} % | {} (≤ 5 %) |",
+        width / 3600.0,
+        first_hi / 1024.0,
+        last_hi / 1024.0,
+        max_rss / 1024.0,
+        goal(hi_change.abs() <= 5.0)
+    );
     let rss_change = pct(warm.rss_kb, last.rss_kb);
     println!(
-        "| {hours} h | {speed}× | RSS | {:.1} MB | {:.1} MB | {:.1} MB | {rss_change:+.1} % | {} (≤ 5 %) |",
+        "| {hours} h | {speed}× | RSS, one sample each | {:.1} MB | {:.1} MB | {:.1} MB | {rss_change:+.1} % | — |",
         warm.rss_kb / 1024.0,
         last.rss_kb / 1024.0,
         max_rss / 1024.0,
-        goal(rss_change.abs() <= 5.0)
     );
     let fd_change = pct(warm.fds as f64, last.fds as f64);
     println!(

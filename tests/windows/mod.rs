@@ -234,7 +234,8 @@ fn attract_loop_and_reset_with_an_accelerated_clock() {
         "\"touch to explore\" shown"
     );
     // Back in the gallery after the reset: the card with the first model's picture.
-    assert!(bright(&run.shot("controller", 10.0), (160, 85, 640, 355), 150.0) > 0.1);
+    let card = bright(&run.shot("controller", 10.0), (160, 85, 640, 355), 150.0);
+    assert!(card > 0.1, "the gallery card after the reset: {card:.3} of its pixels bright\n{}", run.stderr);
     // The visit went to the log of the test's state directory, with its end; the statistics too.
     let state = run.dir.path().join("state");
     let log = std::fs::read_to_string(state.join("visits.jsonl")).expect("visit log");

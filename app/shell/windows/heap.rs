@@ -5,7 +5,8 @@
 //! (docs/performance.md, Soak) it grew 44 % after the warm-up. A fixed threshold of 256 kB (large
 //! blocks are mapped and go back to the system when freed) and two arenas keep it flat. Set once
 //! at the start of the windows' loop; `ISOKIOSK_HEAP=default` leaves glibc's defaults (to measure
-//! the difference side by side). Other C libraries: nothing to do.
+//! the difference side by side). After each renewal of the GPU device ([`super::graphics`]) the
+//! heap's free pages are given back ([`trim`]). Other C libraries: nothing to do.
 
 /// Applies the kiosk's heap settings (see the module's doc); returns whether they were applied.
 pub fn settle() -> bool {
@@ -29,6 +30,20 @@ fn apply() -> bool {
 
 #[cfg(not(all(target_os = "linux", target_env = "gnu")))]
 fn apply() -> bool {
+    false
+}
+
+/// Gives the heap's free pages back to the system (after the GPU device was renewed, when most
+/// of the heap was just freed); returns whether any were. Other C libraries: nothing to do.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+#[expect(unsafe_code, reason = "malloc_trim is a C call; it only releases free memory")]
+pub fn trim() -> bool {
+    // SAFETY: malloc_trim takes a plain integer and may be called at any time.
+    unsafe { libc::malloc_trim(0) == 1 }
+}
+
+#[cfg(not(all(target_os = "linux", target_env = "gnu")))]
+pub fn trim() -> bool {
     false
 }
 

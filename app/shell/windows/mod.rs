@@ -13,12 +13,14 @@
 pub mod config;
 mod draw;
 mod drive;
+mod graphics;
 mod heap;
 mod paint;
 mod surface;
 
 use anyhow::Context as _;
 use config::Config;
+use graphics::{Graphics, Windows};
 use kiosk_content::MappedStore;
 use kiosk_content::snapshot::{lit, node_light, start_light};
 use kiosk_core::camera::{Camera, GoTo, SceneRef};
@@ -30,14 +32,12 @@ use kiosk_core::recommend::RecState;
 use kiosk_core::replay::{ExploreSettings, start_camera};
 use kiosk_core::session::Session;
 use kiosk_core::{Cut, CutParams};
-use kiosk_render::{Blit, Gpu, RenderSettings, Renderer, wgpu};
-use paint::Painter;
+use kiosk_render::{RenderSettings, wgpu};
 use std::collections::HashSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
-use surface::{Canvas, GpuWindow};
 use winit::application::ApplicationHandler;
 use winit::event::{ElementState, MouseButton, TouchPhase, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
@@ -206,15 +206,12 @@ struct App<'a> {
 
 /// Everything that exists once the windows are open.
 struct Running<'a> {
-    gpu: Gpu,
-    projection: GpuWindow,
-    controller: GpuWindow,
-    renderer: Renderer,
-    blit: Blit,
-    proj_painter: Painter,
-    ctrl_painter: Painter,
-    inset: Canvas,
-    inset_id: egui::TextureId,
+    /// The device and everything drawn with it, renewed at each reset ([`graphics`]).
+    gfx: Graphics,
+    instance: wgpu::Instance,
+    adapter: wgpu::Adapter,
+    /// Whether a reset asked for the graphics to be renewed after this tick.
+    renew: bool,
     kiosk: Kiosk<'a, memmap2::Mmap>,
     narrator: kiosk_content::audio::Narrator,
     start: Instant,
@@ -288,31 +285,20 @@ impl<'a> App<'a> {
             flags: wgpu::InstanceFlags::empty().with_env(),
             ..wgpu::InstanceDescriptor::new_without_display_handle()
         });
-        let ps = instance.create_surface(pw.clone())?;
-        let cs = instance.create_surface(cw.clone())?;
+        // An adapter that can present to the projection window (the surface only asks).
+        let probe = instance.create_surface(pw.clone())?;
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
             power_preference: wgpu::PowerPreference::HighPerformance,
             force_fallback_adapter: false,
-            compatible_surface: Some(&ps),
+            compatible_surface: Some(&probe),
             apply_limit_buckets: false,
         }))
         .context("no GPU adapter for the windows")?;
-        let gpu = Gpu::from_adapter(&adapter)?;
-        tracing::info!("GPU: {} ({:?})", gpu.adapter.name, gpu.adapter.backend);
-        for (name, w) in [("projection", &cfg.projection), ("controller", &cfg.controller)] {
-            gpu.check_size((w.size[0], w.size[1]))
-                .with_context(|| format!("[{name}] size = {:?}", w.size))?;
-        }
-        let projection = GpuWindow::new(&gpu, pw, ps, &adapter, cfg.projection.rotation)?;
-        let controller = GpuWindow::new(&gpu, cw, cs, &adapter, cfg.controller.rotation)?;
-        let format = projection.format();
-        let renderer = Renderer::new(&gpu, format);
-        let blit = Blit::new(&gpu, format);
-        let mut proj_painter = Painter::new(&gpu, format.remove_srgb_suffix());
-        let ctrl_painter = Painter::new(&gpu, controller.format().remove_srgb_suffix());
-        let inset = Canvas::new(&gpu, format, INSET_SIZE, "inset");
-        let inset_id = proj_painter.register(&gpu, &inset.view);
-        let ctrl = controller.canvas.size;
+        drop(probe);
+        let gfx =
+            Graphics::new(&instance, &adapter, &Windows { projection: pw, controller: cw, config: cfg })?;
+        tracing::info!("GPU: {} ({:?})", gfx.gpu.adapter.name, gfx.gpu.adapter.backend);
+        let ctrl = gfx.controller.canvas.size;
         let seed = self
             .opts
             .session
@@ -320,8 +306,12 @@ impl<'a> App<'a> {
             .and_then(|s| s.header.as_ref())
             .and_then(|h| h.seed)
             .unwrap_or(cfg.seed);
-        let settings =
-            kiosk_settings(cfg, projection.canvas.size, f64::from(ctrl.0) / f64::from(ctrl.1.max(1)), seed);
+        let settings = kiosk_settings(
+            cfg,
+            gfx.projection.canvas.size,
+            f64::from(ctrl.0) / f64::from(ctrl.1.max(1)),
+            seed,
+        );
         let fps = settings.explore.fps;
         let exhibits: &'a [Exhibit] = self.exhibits;
         let models = exhibits
@@ -369,17 +359,11 @@ impl<'a> App<'a> {
         let input = drive::Input::new(self.opts.session.clone(), self.opts.run_for.is_some());
         let soak = self.opts.run_for.map(|_| self.opts.warmup);
         let probes = drive::Probes::new(trace, self.opts.screenshot_at.clone(), soak, &state_dir);
-        gpu.check()?;
         Ok(Running {
-            gpu,
-            projection,
-            controller,
-            renderer,
-            blit,
-            proj_painter,
-            ctrl_painter,
-            inset,
-            inset_id,
+            gfx,
+            instance,
+            adapter,
+            renew: false,
             kiosk,
             narrator,
             start: Instant::now(),
@@ -419,12 +403,12 @@ impl ApplicationHandler for App<'_> {
 
     fn window_event(&mut self, el: &ActiveEventLoop, id: WindowId, event: WindowEvent) {
         let Some(s) = self.state.as_mut() else { return };
-        let on_controller = id == s.controller.window.id();
+        let on_controller = id == s.gfx.controller.window.id();
         match event {
             WindowEvent::CloseRequested => el.exit(),
             WindowEvent::Resized(size) => {
-                let w = if on_controller { &mut s.controller } else { &mut s.projection };
-                w.resize(&s.gpu, (size.width, size.height));
+                let w = if on_controller { &mut s.gfx.controller } else { &mut s.gfx.projection };
+                w.resize(&s.gfx.gpu, (size.width, size.height));
             }
             WindowEvent::ModifiersChanged(m) => s.ctrl = m.state().control_key(),
             WindowEvent::KeyboardInput { event, .. } => {
@@ -489,6 +473,14 @@ impl ApplicationHandler for App<'_> {
     fn about_to_wait(&mut self, el: &ActiveEventLoop) {
         let Some(s) = self.state.as_mut() else { return };
         match s.tick(&self.opts, self.exhibits) {
+            Ok(true) if s.renew => match self.state.take().map(|s| s.renewed(&self.opts.config)) {
+                Some(Ok(s)) => self.state = Some(s),
+                Some(Err(e)) => {
+                    self.error = Some(e.context("renewing the GPU device at a reset"));
+                    el.exit();
+                }
+                None => {}
+            },
             Ok(true) => {}
             Ok(false) => el.exit(),
             Err(e) => {
@@ -500,16 +492,33 @@ impl ApplicationHandler for App<'_> {
 }
 
 impl Running<'_> {
+    /// The same kiosk on a new device: the old device and all it holds are released first (a
+    /// window presents through one surface at a time), then everything is made again.
+    fn renewed(mut self, config: &Config) -> anyhow::Result<Self> {
+        let windows = Windows {
+            projection: self.gfx.projection.window.clone(),
+            controller: self.gfx.controller.window.clone(),
+            config,
+        };
+        self.in_flight = None;
+        drop(self.gfx);
+        heap::trim();
+        self.gfx = Graphics::new(&self.instance, &self.adapter, &windows)?;
+        self.renew = false;
+        tracing::info!("reset: GPU device renewed");
+        Ok(self)
+    }
+
     /// Kiosk time now.
     fn kiosk_time(&self, speed: f64) -> f64 {
         self.start.elapsed().as_secs_f64() * speed.max(1e-3)
     }
 
     fn normalised(&self, x: f64, y: f64) -> (f64, f64) {
-        let size = self.controller.window.inner_size();
+        let size = self.gfx.controller.window.inner_size();
         let u = (x / f64::from(size.width.max(1))).clamp(0.0, 1.0);
         let v = (y / f64::from(size.height.max(1))).clamp(0.0, 1.0);
-        self.controller.to_canvas(u, v)
+        self.gfx.controller.to_canvas(u, v)
     }
 
     fn input(&mut self, e: TouchEvent) {
@@ -540,11 +549,9 @@ impl Running<'_> {
                 && frame.explore.is_none()
                 && self.kiosk.idle_secs() >= self.kiosk.settings.reset_after_secs
             {
-                // The reset, nobody in front of the kiosk: renew the renderer's GPU objects. On
-                // lavapipe, drawing the model makes driver memory tied to them grow frame after
-                // frame (README, soak); renewing bounds it. The model nodes upload again at once.
-                self.renderer = Renderer::new(&self.gpu, self.projection.format());
-                tracing::info!("reset: renderer renewed");
+                // The reset, nobody in front of the kiosk: the device is renewed after this
+                // tick ([`graphics`]).
+                self.renew = true;
             }
             for fx in &frame.effects {
                 self.effect(fx, exhibits);
@@ -651,28 +658,31 @@ impl Running<'_> {
         // throttle, and frames submitted faster than the GPU draws them pile up in its queue —
         // memory grew without bound in the soak run until this wait.
         if let Some(index) = self.in_flight.take()
-            && let Err(e) =
-                self.gpu.device.poll(wgpu::PollType::Wait { submission_index: Some(index), timeout: None })
+            && let Err(e) = self
+                .gfx
+                .gpu
+                .device
+                .poll(wgpu::PollType::Wait { submission_index: Some(index), timeout: None })
         {
             self.report("GPU wait", &e);
         }
         self.render_projection(exhibits, t);
         self.render_controller(exhibits, t);
-        if let Err(e) = self.gpu.check() {
+        if let Err(e) = self.gfx.gpu.check() {
             self.report("GPU", &e);
         }
-        if let Err(e) = self.projection.present(&self.gpu, &self.blit) {
+        if let Err(e) = self.gfx.projection.present(&self.gfx.gpu, &self.gfx.blit) {
             self.report("projection window", &e);
         }
-        if let Err(e) = self.controller.present(&self.gpu, &self.blit) {
+        if let Err(e) = self.gfx.controller.present(&self.gfx.gpu, &self.gfx.blit) {
             self.report("controller window", &e);
         }
-        self.in_flight = Some(self.gpu.queue.submit([]));
+        self.in_flight = Some(self.gfx.gpu.queue.submit([]));
         Ok(())
     }
 
     fn render_projection(&mut self, exhibits: &[Exhibit], t: f64) {
-        let size = self.projection.canvas.size;
+        let size = self.gfx.projection.canvas.size;
         let model = self.kiosk.model();
         let Some(ex) = exhibits.get(model) else { return };
         let store = &ex.store;
@@ -713,8 +723,9 @@ impl Running<'_> {
                 };
             }
         }
-        let canvas = &self.projection.canvas;
-        if let Err(e) = self.renderer.render(&self.gpu, store, &nodes, &camera, &canvas.view, size, &settings)
+        let canvas = &self.gfx.projection.canvas;
+        if let Err(e) =
+            self.gfx.renderer.render(&self.gfx.gpu, store, &nodes, &camera, &canvas.view, size, &settings)
         {
             self.report("render", &e);
         }
@@ -740,12 +751,12 @@ impl Running<'_> {
                 None => x.light(),
             };
             let inset_settings = lit(self.render_settings, light);
-            if let Err(e) = self.renderer.render(
-                &self.gpu,
+            if let Err(e) = self.gfx.renderer.render(
+                &self.gfx.gpu,
                 store,
                 x.cut().nodes(),
                 &cam,
-                &self.inset.view,
+                &self.gfx.inset.view,
                 INSET_SIZE,
                 &inset_settings,
             ) {
@@ -754,7 +765,7 @@ impl Running<'_> {
             let title =
                 g.nodes[node].title.get(&lang, &g.default_lang).unwrap_or(&g.nodes[node].id).to_string();
             inset = Some(draw::Inset {
-                id: self.inset_id,
+                id: self.gfx.inset_id,
                 aspect: INSET_SIZE.0 as f32 / INSET_SIZE.1 as f32,
                 alpha: alpha as f32,
                 scale: (0.8 + 0.2 * alpha) as f32,
@@ -769,7 +780,7 @@ impl Running<'_> {
             let alpha = ((t - since) / 0.5).clamp(0.0, 1.0) as f32;
             if let Some(file) = n.overlay.get(&lang, &g.default_lang) {
                 overlay = media(&mut self.reported, &ex.dir, file)
-                    .and_then(|path| self.proj_painter.image(&path))
+                    .and_then(|path| self.gfx.proj_painter.image(&path))
                     .map(|t| (t, alpha));
             }
             caption = Some((
@@ -795,8 +806,8 @@ impl Running<'_> {
         let mode = self.kiosk.mode();
         let title = ex.title(&lang);
         let words = draw::words(&lang);
-        let view = self.projection.canvas.ui_view.clone();
-        self.proj_painter.paint(&self.gpu, &view, size, None, t, |ctx| {
+        let view = self.gfx.projection.canvas.ui_view.clone();
+        self.gfx.proj_painter.paint(&self.gfx.gpu, &view, size, None, t, |ctx| {
             let screen = ctx.content_rect();
             let p = ctx.layer_painter(egui::LayerId::background());
             if let Some((tex, alpha)) = &overlay {
@@ -824,12 +835,12 @@ impl Running<'_> {
         let n = g.nodes.get(node)?;
         let file = n.thumbnail.as_deref().and_then(|f| media(&mut self.reported, &ex.dir, f));
         if let Some(path) = &file {
-            return self.proj_painter.image(path);
+            return self.gfx.proj_painter.image(path);
         }
         // No usable file: a render of the node's view, cached under a key no file can have.
         let key = ex.dir.join(format!("#render-{}", n.id));
-        if self.proj_painter.has_image(&key) {
-            return self.proj_painter.image(&key);
+        if self.gfx.proj_painter.has_image(&key) {
+            return self.gfx.proj_painter.image(&key);
         }
         let size = (256, 144);
         let img = n.view.view_params(&ex.store, size).and_then(|v| {
@@ -843,10 +854,10 @@ impl Running<'_> {
             let start =
                 start_light(&start_camera(&ex.store, self.kiosk.settings.explore.fov_y, ex.up, ex.front));
             let settings = lit(self.render_settings, node_light(n, start));
-            self.renderer.render_image(&self.gpu, &ex.store, &nodes, &n.view, size, &settings).ok()
+            self.gfx.renderer.render_image(&self.gfx.gpu, &ex.store, &nodes, &n.view, size, &settings).ok()
         });
         match img {
-            Some((img, _)) => Some(self.proj_painter.put_image(&key, &img)),
+            Some((img, _)) => Some(self.gfx.proj_painter.put_image(&key, &img)),
             None => {
                 self.report("thumbnail", &format!("node {} of {}", n.id, ex.dir.display()));
                 None
@@ -855,7 +866,7 @@ impl Running<'_> {
     }
 
     fn render_controller(&mut self, exhibits: &[Exhibit], t: f64) {
-        let size = self.controller.canvas.size;
+        let size = self.gfx.controller.canvas.size;
         let lang = self.kiosk.lang().to_string();
         let model = self.kiosk.model();
         let ex = exhibits.get(model);
@@ -864,7 +875,7 @@ impl Running<'_> {
             let g = e.graph.as_ref()?;
             let f = g.nodes.first()?.thumbnail.as_ref()?;
             let path = media(&mut self.reported, &e.dir, f)?;
-            self.ctrl_painter.image(&path)
+            self.gfx.ctrl_painter.image(&path)
         });
         let caption = self.kiosk.narrating().and_then(|(m, node)| {
             let g = exhibits.get(m)?.graph.as_ref()?;
@@ -892,15 +903,16 @@ impl Running<'_> {
                 .map(|x| x.light_pad())
                 .map(|p| (p.x, p.y)),
         };
-        let target = self.controller.canvas.ui_view.clone();
-        self.ctrl_painter
-            .paint(&self.gpu, &target, size, Some(wgpu::Color::BLACK), t, |ctx| draw::controller(ctx, &view));
+        let target = self.gfx.controller.canvas.ui_view.clone();
+        self.gfx.ctrl_painter.paint(&self.gfx.gpu, &target, size, Some(wgpu::Color::BLACK), t, |ctx| {
+            draw::controller(ctx, &view)
+        });
     }
 
     /// Saves both canvases as PNG.
     fn capture(&mut self, dir: &Path, at: f64) -> anyhow::Result<()> {
-        for (name, w) in [("projection", &self.projection), ("controller", &self.controller)] {
-            let img = kiosk_render::read_back(&self.gpu, &w.canvas.texture, w.canvas.size)?;
+        for (name, w) in [("projection", &self.gfx.projection), ("controller", &self.gfx.controller)] {
+            let img = kiosk_render::read_back(&self.gfx.gpu, &w.canvas.texture, w.canvas.size)?;
             let path = dir.join(format!("{name}-{at:.1}.png"));
             img.save(&path).with_context(|| format!("cannot write {}", path.display()))?;
             tracing::info!("screenshot {}", path.display());

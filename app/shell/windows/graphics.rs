@@ -1,0 +1,64 @@
+//! Everything the windows draw with that lives on the GPU device: the device, the windows'
+//! surfaces, the model renderer, the blit to the screen, the two egui painters and the
+//! suggestion inset — made together, and renewed together.
+//!
+//! Renewal: lavapipe keeps memory it allocates while drawing (per frame, in its own threads) until
+//! its device is destroyed, so a kiosk that runs for months on it grows (docs/performance.md,
+//! Soak: +22 % to +35 % in a day of visits whether the renderer's objects were renewed or not).
+//! The kiosk therefore renews the whole device at each reset, when nobody is in front of it: the
+//! windows stay, their surfaces and everything else are made again on a new device from the same
+//! adapter; images and model nodes load again on demand.
+
+use super::paint::Painter;
+use super::surface::{Canvas, GpuWindow};
+use super::{INSET_SIZE, config};
+use anyhow::Context as _;
+use kiosk_render::{Blit, Gpu, Renderer, wgpu};
+use std::sync::Arc;
+use winit::window::Window;
+
+/// The GPU device and what is made on it.
+pub(super) struct Graphics {
+    pub gpu: Gpu,
+    pub projection: GpuWindow,
+    pub controller: GpuWindow,
+    pub renderer: Renderer,
+    pub blit: Blit,
+    pub proj_painter: Painter,
+    pub ctrl_painter: Painter,
+    pub inset: Canvas,
+    pub inset_id: egui::TextureId,
+}
+
+/// The two windows and their configuration, kept across renewals.
+pub(super) struct Windows<'c> {
+    pub projection: Arc<Window>,
+    pub controller: Arc<Window>,
+    pub config: &'c config::Config,
+}
+
+impl Graphics {
+    /// A device on `adapter` and, on it, surfaces for both windows and everything drawn into them.
+    pub fn new(instance: &wgpu::Instance, adapter: &wgpu::Adapter, w: &Windows<'_>) -> anyhow::Result<Self> {
+        let ps = instance.create_surface(w.projection.clone())?;
+        let cs = instance.create_surface(w.controller.clone())?;
+        let gpu = Gpu::from_adapter(adapter)?;
+        for (name, c) in [("projection", &w.config.projection), ("controller", &w.config.controller)] {
+            gpu.check_size((c.size[0], c.size[1]))
+                .with_context(|| format!("[{name}] size = {:?}", c.size))?;
+        }
+        let projection =
+            GpuWindow::new(&gpu, w.projection.clone(), ps, adapter, w.config.projection.rotation)?;
+        let controller =
+            GpuWindow::new(&gpu, w.controller.clone(), cs, adapter, w.config.controller.rotation)?;
+        let format = projection.format();
+        let renderer = Renderer::new(&gpu, format);
+        let blit = Blit::new(&gpu, format);
+        let mut proj_painter = Painter::new(&gpu, format.remove_srgb_suffix());
+        let ctrl_painter = Painter::new(&gpu, controller.format().remove_srgb_suffix());
+        let inset = Canvas::new(&gpu, format, INSET_SIZE, "inset");
+        let inset_id = proj_painter.register(&gpu, &inset.view);
+        gpu.check()?;
+        Ok(Self { gpu, projection, controller, renderer, blit, proj_painter, ctrl_painter, inset, inset_id })
+    }
+}
