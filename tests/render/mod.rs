@@ -344,19 +344,44 @@ fn bounded_uploads_substitute_cached_ancestors() {
     let cut = kiosk_core::Cut::leaves(store);
     let nodes = cut.visible_nodes(store, &view);
     let tight = RenderSettings { upload_budget_bytes: 64 << 10, ..RenderSettings::default() };
-    let (_, first) = renderer.render_image(gpu, store, &nodes, &cam, (160, 120), &tight).expect("frame");
+    let (_, target) = renderer.offscreen_target(gpu, (160, 120));
+    let mut frame = || renderer.render(gpu, store, &nodes, &cam, &target, (160, 120), &tight).expect("frame");
+    let first = frame();
     assert!(first.substituted > 0, "{first:?}");
     assert!(first.uploaded_bytes <= (64 << 10) + 24 * u64::from(store.node(store.root()).point_count));
     // Frame after frame the cache fills and nothing is substituted any more.
     let mut last = first;
     for _ in 0..200 {
-        last = renderer.render_image(gpu, store, &nodes, &cam, (160, 120), &tight).expect("frame").1;
+        last = frame();
         if last.substituted == 0 {
             break;
         }
     }
     assert_eq!(last.substituted, 0);
     assert_eq!(last.nodes, nodes.len());
+    assert_no_validation_errors();
+}
+
+#[test]
+fn a_rendered_image_is_complete_whatever_the_upload_budget() {
+    // A snapshot, a thumbnail or a benchmark's frame is one frame: the budget that paces a live
+    // view must not leave stand-in ancestors (large discs past the silhouette) in it.
+    let store = &bunny().store;
+    let mut g = gpu().lock().unwrap_or_else(|e| e.into_inner());
+    let (gpu, _) = &mut *g;
+    let cam = start(store);
+    let view = cam.view_params(store, (160, 120)).expect("view");
+    let nodes = kiosk_core::Cut::leaves(store).visible_nodes(store, &view);
+    let image = |budget: u64| {
+        let mut renderer = Renderer::new(gpu, kiosk_render::OFFSCREEN_FORMAT);
+        let s = RenderSettings { upload_budget_bytes: budget, ..RenderSettings::default() };
+        renderer.render_image(gpu, store, &nodes, &cam, (160, 120), &s).expect("image")
+    };
+    let (tight, stats) = image(64 << 10);
+    assert_eq!(stats.substituted, 0, "{stats:?}");
+    assert_eq!(stats.nodes, nodes.len());
+    let (roomy, _) = image(u64::MAX);
+    assert!(tight == roomy, "the same image whatever the budget");
     assert_no_validation_errors();
 }
 

@@ -874,7 +874,10 @@ impl Renderer {
         (texture, view)
     }
 
-    /// Renders offscreen and returns the image (sRGB RGBA8).
+    /// Renders offscreen and returns the image (sRGB RGBA8). The image is complete: every node
+    /// is uploaded whatever the per-frame upload budget, which only paces a live view (in a
+    /// snapshot, a thumbnail or a benchmark's frame, a stand-in ancestor's large discs would
+    /// stay in the picture).
     pub fn render_image<B: AsRef<[u8]>>(
         &mut self,
         gpu: &Gpu,
@@ -887,7 +890,8 @@ impl Renderer {
         let (w, h) = (size.0.max(1), size.1.max(1));
         gpu.check_size((w, h))?;
         let (texture, view) = self.offscreen_target(gpu, (w, h));
-        let stats = self.render(gpu, store, nodes, camera, &view, (w, h), settings)?;
+        let settings = RenderSettings { upload_budget_bytes: u64::MAX, ..*settings };
+        let stats = self.render(gpu, store, nodes, camera, &view, (w, h), &settings)?;
         let image = read_back(gpu, &texture, (w, h))?;
         Ok((image, stats))
     }
