@@ -35,29 +35,86 @@ pub fn model_file(dir: &Path) -> anyhow::Result<PathBuf> {
         })
 }
 
-/// Opens an exhibit's model, importing a scan into the cache when needed (see [`cache_name`]:
-/// an edited scan, other settings or a new builder import it again).
+/// Opens an exhibit's model, importing a scan into the cache ([`cache_dir`]) when needed (see
+/// [`cache_name`]: an edited scan, other settings or a new builder import it again).
 pub fn open_model(dir: &Path) -> anyhow::Result<MappedStore> {
+    open_model_in(dir, &cache_dir())
+}
+
+/// [`open_model`] with the cache in `cache`. The store made from a scan replaces the cache's
+/// stores of earlier versions of that scan ([`sweep_cache`]).
+pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
     let file = model_file(dir)?;
     if file.extension().is_some_and(|e| e == "kstore") {
         return crate::open_store(&file);
     }
     let options = ImportOptions::default();
     let name = cache_name(&file, &options, kiosk_import::BUILDER_REVISION)?;
-    let cache = cache_dir();
-    std::fs::create_dir_all(&cache)
-        .with_context(|| format!("cannot create the cache {}", cache.display()))?;
+    std::fs::create_dir_all(cache).with_context(|| format!("cannot create the cache {}", cache.display()))?;
     let store = cache.join(name);
-    if let Ok(s) = crate::open_store(&store) {
-        return Ok(s);
+    let opened = match crate::open_store(&store) {
+        Ok(s) => s,
+        Err(_) => {
+            // Another kiosk or replay may be importing the same scan: wait for it, then use its
+            // store.
+            let lock = OutputLock::acquire(&store)?;
+            match crate::open_store(&store) {
+                Ok(s) => s,
+                Err(_) => {
+                    import_locked(&file, &lock, &options)?;
+                    crate::open_store(&store)?
+                }
+            }
+        }
+    };
+    let source = file.canonicalize().unwrap_or(file);
+    if let Err(e) = std::fs::write(store.with_extension(SOURCE), source.to_string_lossy().as_bytes()) {
+        tracing::warn!("cannot note the scan of {} in the cache: {e}", store.display());
     }
-    // Another kiosk or replay may be importing the same scan: wait for it, then use its store.
-    let lock = OutputLock::acquire(&store)?;
-    if let Ok(s) = crate::open_store(&store) {
-        return Ok(s);
+    sweep_cache(cache, &store, &source);
+    Ok(opened)
+}
+
+/// Ending of the note beside each cached store that names the scan it was made from.
+const SOURCE: &str = "source";
+
+/// Removes from `cache` the stores made from earlier versions of the scan `source` (edited, other
+/// settings, an older builder) and from scans that no longer exist, with their notes and locks;
+/// `keep` stays. Without it, every edit of a billion-point scan would leave its old store on the
+/// disk for good. A store whose lock another process holds (it is being imported) is left, as
+/// are stores without a note (made by an older kiosk: the technician may remove them).
+pub fn sweep_cache(cache: &Path, keep: &Path, source: &Path) {
+    let source = source.to_string_lossy();
+    for entry in std::fs::read_dir(cache).into_iter().flatten().flatten() {
+        let note = entry.path();
+        if note.extension().is_none_or(|e| e != SOURCE) {
+            continue;
+        }
+        let store = note.with_extension("kstore");
+        let Ok(named) = std::fs::read_to_string(&note) else { continue };
+        let stale = named == source || !Path::new(&named).exists();
+        if store == keep || !stale {
+            continue;
+        }
+        let Some(name) = store.file_name().and_then(|n| n.to_str()) else { continue };
+        let lock_path = cache.join(format!(".{name}.lock"));
+        let lock = std::fs::OpenOptions::new().create(true).truncate(false).write(true).open(&lock_path);
+        if !lock.is_ok_and(|l| l.try_lock().is_ok()) {
+            continue;
+        }
+        match std::fs::remove_file(&store) {
+            Ok(()) => {
+                tracing::info!("cache: removed {} (made from {named}, now replaced or gone)", store.display())
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => {
+                tracing::warn!("cache: cannot remove {}: {e}", store.display());
+                continue;
+            }
+        }
+        let _ = std::fs::remove_file(&note);
+        let _ = std::fs::remove_file(&lock_path);
     }
-    import_locked(&file, &lock, &options)?;
-    crate::open_store(&store)
 }
 
 /// Where stores imported from scans are kept across restarts (a reboot must not cost a
@@ -365,5 +422,59 @@ mod tests {
         assert_ne!(base, name(&options, 2), "an edited scan");
         let e = cache_name(&dir.path().join("gone.obj"), &options, 2).expect_err("no file");
         assert!(e.to_string().contains("gone.obj"), "{e}");
+    }
+
+    #[test]
+    fn an_edited_scan_replaces_its_cached_store_and_other_exhibits_keep_theirs() {
+        let root = tempfile::tempdir().expect("temp dir");
+        let cache = root.path().join("cache");
+        let exhibit = |name: &str| {
+            let dir = root.path().join(name);
+            std::fs::create_dir_all(&dir).expect("exhibit dir");
+            std::fs::copy(
+                Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .join("../../tests/data/scans/demosthenes/demosthenes-low-res.obj"),
+                dir.join("bust.obj"),
+            )
+            .expect("copy the scan");
+            dir
+        };
+        let (a, b) = (exhibit("a"), exhibit("b"));
+        let stores = || {
+            let mut v: Vec<String> = std::fs::read_dir(&cache)
+                .expect("cache")
+                .flatten()
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| !n.starts_with(".bust"))
+                .collect();
+            v.sort();
+            v
+        };
+        open_model_in(&a, &cache).expect("a");
+        open_model_in(&b, &cache).expect("b");
+        let before = stores();
+        assert_eq!(before.len(), 4, "a store and its note for each exhibit: {before:?}");
+        assert!(before.iter().all(|n| n.ends_with(".kstore") || n.ends_with(".source")), "{before:?}");
+        // An edit of a's scan: its new store replaces its old one; b's stays.
+        let mut text = std::fs::read_to_string(a.join("bust.obj")).expect("read");
+        text.push_str("# edited\n");
+        std::fs::write(a.join("bust.obj"), text).expect("edit");
+        open_model_in(&a, &cache).expect("a edited");
+        let after = stores();
+        assert_eq!(after.len(), 4, "{after:?}");
+        let gone: Vec<_> = before.iter().filter(|n| !after.contains(n)).collect();
+        assert_eq!(gone.len(), 2, "a's old store and note: {gone:?}");
+        assert!(after.iter().filter(|n| before.contains(n)).count() == 2, "b's store and note stay");
+        // b is deleted: the next sweep removes its store, note and lock.
+        std::fs::remove_dir_all(&b).expect("remove b");
+        open_model_in(&a, &cache).expect("a again");
+        let last = stores();
+        assert_eq!(last.len(), 2, "{last:?}");
+        let locks = std::fs::read_dir(&cache)
+            .expect("cache")
+            .flatten()
+            .filter(|e| e.file_name().to_string_lossy().starts_with(".bust"))
+            .count();
+        assert_eq!(locks, 1, "only the kept store's lock");
     }
 }
