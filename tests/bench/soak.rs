@@ -67,17 +67,18 @@ fn main() {
     // At most ~24 rows: every k-th sample, and the last.
     let k = series.len().div_ceil(24).max(1);
     println!(
-        "| kiosk time (h) | RSS (MB) | of which anonymous | of which mapped files | open files | state (kB) |"
+        "| kiosk time (h) | RSS (MB) | of which anonymous | of which mapped files | heap in use (MB) | open files | state (kB) |"
     );
-    println!("|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|");
     for (i, s) in series.iter().enumerate() {
         if i % k == k - 1 || i + 1 == series.len() {
             println!(
-                "| {:.2} | {:.1} | {:.1} | {:.1} | {} | {:.0} |",
+                "| {:.2} | {:.1} | {:.1} | {:.1} | {:.1} | {} | {:.0} |",
                 s.t / 3600.0,
                 s.rss_kb / 1024.0,
                 s.anon_kb / 1024.0,
                 s.file_kb / 1024.0,
+                s.heap_kb / 1024.0,
                 s.fds,
                 s.state / 1024.0
             );
@@ -162,7 +163,7 @@ fn main() {
 }
 
 /// One report of the kiosk ("soak: t = 300 s, RSS 123 kB, 17 open files, state 4567 B, anon 100
-/// kB, file 23 kB").
+/// kB, file 23 kB, heap 80 kB").
 struct Sample {
     t: f64,
     rss_kb: f64,
@@ -171,6 +172,8 @@ struct Sample {
     /// Anonymous memory (heap, driver) and mapped files (stores), kB.
     anon_kb: f64,
     file_kb: f64,
+    /// What the program holds in the heap, kB (0 off glibc).
+    heap_kb: f64,
 }
 
 impl Sample {
@@ -180,7 +183,8 @@ impl Sample {
         let (rss, rest) = rest.split_once(" kB, ")?;
         let (fds, rest) = rest.split_once(" open files, state ")?;
         let (state, rest) = rest.split_once(" B, anon ")?;
-        let (anon, file) = rest.strip_suffix(" kB")?.split_once(" kB, file ")?;
+        let (anon, rest) = rest.split_once(" kB, file ")?;
+        let (file, heap) = rest.strip_suffix(" kB")?.split_once(" kB, heap ")?;
         Some(Self {
             t: t.parse().ok()?,
             rss_kb: rss.parse().ok()?,
@@ -188,6 +192,7 @@ impl Sample {
             state: state.parse().ok()?,
             anon_kb: anon.parse().ok()?,
             file_kb: file.parse().ok()?,
+            heap_kb: heap.parse().ok()?,
         })
     }
 }

@@ -92,12 +92,13 @@ impl Probes {
         if let Some((warmup, warm, state)) = &mut self.soak {
             if steps.is_multiple_of((300.0 / dt).round() as u64) {
                 println!(
-                    "soak: t = {t:.0} s, RSS {} kB, {} open files, state {} B, anon {} kB, file {} kB",
+                    "soak: t = {t:.0} s, RSS {} kB, {} open files, state {} B, anon {} kB, file {} kB, heap {} kB",
                     rss_kb().unwrap_or(0),
                     open_files().unwrap_or(0),
                     dir_bytes(state),
                     status_kb("RssAnon:").unwrap_or(0),
-                    status_kb("RssFile:").unwrap_or(0)
+                    status_kb("RssFile:").unwrap_or(0),
+                    super::heap::in_use_kb().unwrap_or(0)
                 );
             }
             if warm.is_none() && t >= *warmup {
