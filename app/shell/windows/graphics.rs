@@ -1,14 +1,15 @@
-//! Everything the windows draw with that lives on the GPU: the instance, the adapter, the device,
-//! the windows' surfaces, the model renderer, the blit to the screen, the two egui painters and
-//! the suggestion inset — made together, and renewed together.
+//! Everything the windows draw with that lives on the GPU device: the device, the windows'
+//! surfaces, the model renderer, the blit to the screen, the two egui painters and the
+//! suggestion inset — made together, and renewed together.
 //!
 //! Renewal: lavapipe keeps memory it allocates while drawing (per frame, in its own threads) until
 //! its device is destroyed, so a kiosk that runs for months on it grows (docs/performance.md,
 //! Soak: +22 % to +35 % in a day of visits whether the renderer's objects were renewed or not).
-//! The kiosk therefore renews all of it at each reset, when nobody is in front of it: the windows
-//! stay, everything else is made again; images and model nodes load again on demand. What still
-//! grows (a few kB a frame, in lavapipe's threads, live until the process ends) belongs to the
-//! driver's process-wide state, which no renewal reaches.
+//! The kiosk therefore renews the whole device at each reset, when nobody is in front of it: the
+//! windows stay, their surfaces and everything else are made again on a new device from the same
+//! adapter; images and model nodes load again on demand. What still grows (a few kB a frame, in
+//! lavapipe's threads, live until the process ends) belongs to the driver's process-wide state:
+//! renewing the instance and adapter too did not reach it and fragmented the heap more (Soak).
 
 use super::paint::Painter;
 use super::surface::{Canvas, GpuWindow};
@@ -39,25 +40,9 @@ pub(super) struct Windows<'c> {
 }
 
 impl Graphics {
-    /// A GPU instance, an adapter that can present to the projection window, a device on it and,
-    /// on that, surfaces for both windows and everything drawn into them.
-    pub fn new(w: &Windows<'_>) -> anyhow::Result<Self> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
-            backends: wgpu::Backends::VULKAN | wgpu::Backends::GL,
-            // wgpu validates every call itself; the Vulkan layers stay off in the kiosk (the render
-            // tests run with them), set WGPU_VALIDATION=1 to turn them on.
-            flags: wgpu::InstanceFlags::empty().with_env(),
-            ..wgpu::InstanceDescriptor::new_without_display_handle()
-        });
+    /// A device on `adapter` and, on it, surfaces for both windows and everything drawn into them.
+    pub fn new(instance: &wgpu::Instance, adapter: &wgpu::Adapter, w: &Windows<'_>) -> anyhow::Result<Self> {
         let ps = instance.create_surface(w.projection.clone())?;
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: false,
-            compatible_surface: Some(&ps),
-            apply_limit_buckets: false,
-        }))
-        .context("no GPU adapter for the windows")?;
-        let adapter = &adapter;
         let cs = instance.create_surface(w.controller.clone())?;
         let gpu = Gpu::from_adapter(adapter)?;
         for (name, c) in [("projection", &w.config.projection), ("controller", &w.config.controller)] {

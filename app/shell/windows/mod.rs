@@ -208,6 +208,8 @@ struct App<'a> {
 struct Running<'a> {
     /// The device and everything drawn with it, renewed at each reset ([`graphics`]).
     gfx: Graphics,
+    instance: wgpu::Instance,
+    adapter: wgpu::Adapter,
     /// Whether a reset asked for the graphics to be renewed after this tick.
     renew: bool,
     kiosk: Kiosk<'a, memmap2::Mmap>,
@@ -276,7 +278,25 @@ impl<'a> App<'a> {
             &cfg.controller,
             cfg.projection.size[0] as i32 + 8,
         ))?);
-        let gfx = Graphics::new(&Windows { projection: pw, controller: cw, config: cfg })?;
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+            backends: wgpu::Backends::VULKAN | wgpu::Backends::GL,
+            // wgpu validates every call itself; the Vulkan layers stay off in the kiosk (the render
+            // tests run with them), set WGPU_VALIDATION=1 to turn them on.
+            flags: wgpu::InstanceFlags::empty().with_env(),
+            ..wgpu::InstanceDescriptor::new_without_display_handle()
+        });
+        // An adapter that can present to the projection window (the surface only asks).
+        let probe = instance.create_surface(pw.clone())?;
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: Some(&probe),
+            apply_limit_buckets: false,
+        }))
+        .context("no GPU adapter for the windows")?;
+        drop(probe);
+        let gfx =
+            Graphics::new(&instance, &adapter, &Windows { projection: pw, controller: cw, config: cfg })?;
         tracing::info!("GPU: {} ({:?})", gfx.gpu.adapter.name, gfx.gpu.adapter.backend);
         let ctrl = gfx.controller.canvas.size;
         let seed = self
@@ -341,6 +361,8 @@ impl<'a> App<'a> {
         let probes = drive::Probes::new(trace, self.opts.screenshot_at.clone(), soak, &state_dir);
         Ok(Running {
             gfx,
+            instance,
+            adapter,
             renew: false,
             kiosk,
             narrator,
@@ -481,7 +503,7 @@ impl Running<'_> {
         self.in_flight = None;
         drop(self.gfx);
         heap::trim();
-        self.gfx = Graphics::new(&windows)?;
+        self.gfx = Graphics::new(&self.instance, &self.adapter, &windows)?;
         self.renew = false;
         tracing::info!("reset: GPU device renewed");
         Ok(self)
