@@ -96,12 +96,10 @@ pub fn sweep_cache(cache: &Path, keep: &Path, source: &Path) {
         if store == keep || !stale {
             continue;
         }
-        let Some(name) = store.file_name().and_then(|n| n.to_str()) else { continue };
-        let lock_path = cache.join(format!(".{name}.lock"));
-        let lock = std::fs::OpenOptions::new().create(true).truncate(false).write(true).open(&lock_path);
-        if !lock.is_ok_and(|l| l.try_lock().is_ok()) {
+        let (Ok(Some(_lock)), Ok(lock_path)) = (OutputLock::try_acquire(&store), OutputLock::file_of(&store))
+        else {
             continue;
-        }
+        };
         match std::fs::remove_file(&store) {
             Ok(()) => {
                 tracing::info!("cache: removed {} (made from {named}, now replaced or gone)", store.display())

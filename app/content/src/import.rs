@@ -119,9 +119,24 @@ impl OutputLock {
     /// Locks `out`, waiting (with a message in the log) while another process holds it, then
     /// removes what interrupted imports to it left behind.
     pub fn acquire(out: &Path) -> anyhow::Result<Self> {
+        Self::lock(out, true)?.with_context(|| format!("{}: the lock was not taken", out.display()))
+    }
+
+    /// Locks `out` if no other process holds it (`None` if one does), without waiting.
+    pub fn try_acquire(out: &Path) -> anyhow::Result<Option<Self>> {
+        Self::lock(out, false)
+    }
+
+    /// The lock file of `out`.
+    pub fn file_of(out: &Path) -> anyhow::Result<PathBuf> {
+        let (dir, name) = split(out)?;
+        Ok(dir.join(format!(".{name}.lock")))
+    }
+
+    fn lock(out: &Path, wait: bool) -> anyhow::Result<Option<Self>> {
         let (dir, name) = split(out)?;
         std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        let path = dir.join(format!(".{name}.lock"));
+        let path = Self::file_of(out)?;
         let file = std::fs::OpenOptions::new()
             .create(true)
             .truncate(false)
@@ -130,6 +145,7 @@ impl OutputLock {
             .with_context(|| format!("cannot create the lock {}", path.display()))?;
         match file.try_lock() {
             Ok(()) => {}
+            Err(std::fs::TryLockError::WouldBlock) if !wait => return Ok(None),
             Err(std::fs::TryLockError::WouldBlock) => {
                 tracing::info!("{}: another import is writing it; waiting", out.display());
                 file.lock().with_context(|| format!("cannot lock {}", path.display()))?;
@@ -146,7 +162,7 @@ impl OutputLock {
                 tracing::info!("removed {}, left by an interrupted import", entry.path().display());
             }
         }
-        Ok(Self { out: out.to_path_buf(), _file: file })
+        Ok(Some(Self { out: out.to_path_buf(), _file: file }))
     }
 
     /// The output it locks.

@@ -473,14 +473,17 @@ impl ApplicationHandler for App<'_> {
     fn about_to_wait(&mut self, el: &ActiveEventLoop) {
         let Some(s) = self.state.as_mut() else { return };
         match s.tick(&self.opts, self.exhibits) {
-            Ok(true) if s.renew => match self.state.take().map(|s| s.renewed(&self.opts.config)) {
-                Some(Ok(s)) => self.state = Some(s),
-                Some(Err(e)) => {
-                    self.error = Some(e.context("renewing the GPU device at a reset"));
-                    el.exit();
+            Ok(true) if s.renew => {
+                if let Some(s) = self.state.take() {
+                    match s.renewed(&self.opts.config) {
+                        Ok(s) => self.state = Some(s),
+                        Err(e) => {
+                            self.error = Some(e.context("renewing the GPU device at a reset"));
+                            el.exit();
+                        }
+                    }
                 }
-                None => {}
-            },
+            }
             Ok(true) => {}
             Ok(false) => el.exit(),
             Err(e) => {
