@@ -111,10 +111,7 @@ fn shade(base: vec3<f32>, n: vec3<f32>) -> vec4<f32> {
 
 /// Encodes a linear colour for the target.
 fn finish(c: vec3<f32>) -> vec4<f32> {
-    if (frame.shading.z > 0.5) {
-        return vec4<f32>(c, 1.0);
-    }
-    return vec4<f32>(linear_to_srgb(c), 1.0);
+    return vec4<f32>(select(linear_to_srgb(c), c, frame.shading.z > 0.5), 1.0);
 }
 
 /// The corner of an instanced quad (triangle strip of four).
@@ -127,17 +124,15 @@ fn splat_vertex(vi: u32, inst: VertexIn, push: f32) -> VertexOut {
     let c = corner(vi);
     let center = inst.pos + frame.offset.xyz;
     let n = facing(oct_decode(inst.normal_oct), center);
-    var u: vec3<f32>;
-    var v: vec3<f32>;
-    if (frame.params.x < 0.5) {
-        // Oriented disc: a tangent basis of the normal.
-        let a = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
-        u = normalize(cross(n, a));
-        v = cross(n, u);
-    } else {
-        u = frame.camera_right.xyz;
-        v = frame.camera_up.xyz;
-    }
+    // Oriented disc: a tangent basis of the normal; round points: the camera's axes. Chosen with
+    // `select`, not `if`: lavapipe compiles a new vertex shader for every draw whose shader
+    // branches on a uniform alone (it inlines such uniforms), and keeps each one until the
+    // device is destroyed (docs/performance.md, Soak).
+    let a = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
+    let tangent = normalize(cross(n, a));
+    let discs = frame.params.x < 0.5;
+    let u = select(frame.camera_right.xyz, tangent, discs);
+    let v = select(frame.camera_up.xyz, cross(n, tangent), discs);
     var r = inst.radius * frame.params.y;
     // A far splat covers at least `viewport.z` pixels: no splat falls between pixel centres.
     let depth = max(dot(center, frame.view_dir.xyz), 1e-30);

@@ -20,11 +20,12 @@ pub fn read(rel: &str) -> Vec<InputPoint> {
     }
 }
 
-/// A built store in a temporary directory (kept alive with it).
+/// A built store, mapped; its file is already removed (the mapping keeps the pages), so that a
+/// store kept in a `static` for the whole test run leaves nothing behind in the temporary
+/// directory.
 pub struct Built {
     pub store: MappedStore,
     pub summary: BuildSummary,
-    pub _dir: tempfile::TempDir,
 }
 
 /// Builds a store from points.
@@ -42,7 +43,8 @@ pub fn try_build(points: &[InputPoint], params: BuildParams) -> Result<Built, ki
     }
     let summary = b.finish(&out, &mut |_| {})?;
     let store = kiosk_content::open_store(&out).unwrap_or_else(|e| panic!("{e:#}"));
-    Ok(Built { store, summary, _dir: dir })
+    dir.close().expect("remove the temporary directory");
+    Ok(Built { store, summary })
 }
 
 /// Small nodes so that real scans of a few ten thousand points make deep trees.

@@ -19,6 +19,12 @@ use kiosk_render::{Blit, Gpu, Renderer, wgpu};
 use std::sync::Arc;
 use winit::window::Window;
 
+/// Whether the device is renewed at each reset: yes, unless `ISOKIOSK_RENEW=never` (to measure
+/// the difference side by side).
+pub(super) fn renewal_wanted() -> bool {
+    std::env::var_os("ISOKIOSK_RENEW").is_none_or(|v| v != "never")
+}
+
 /// The GPU device and what is made on it.
 pub(super) struct Graphics {
     pub gpu: Gpu,

@@ -14,7 +14,7 @@ pub mod config;
 mod draw;
 mod drive;
 mod graphics;
-mod heap;
+pub mod heap;
 mod paint;
 mod surface;
 
@@ -554,7 +554,7 @@ impl Running<'_> {
             {
                 // The reset, nobody in front of the kiosk: the device is renewed after this
                 // tick ([`graphics`]).
-                self.renew = true;
+                self.renew = graphics::renewal_wanted();
             }
             for fx in &frame.effects {
                 self.effect(fx, exhibits);
