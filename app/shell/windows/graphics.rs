@@ -2,14 +2,13 @@
 //! surfaces, the model renderer, the blit to the screen, the two egui painters and the
 //! suggestion inset — made together, and renewed together.
 //!
-//! Renewal: lavapipe keeps memory it allocates while drawing (per frame, in its own threads) until
-//! its device is destroyed, so a kiosk that runs for months on it grows (docs/performance.md,
-//! Soak: +22 % to +35 % in a day of visits whether the renderer's objects were renewed or not).
-//! The kiosk therefore renews the whole device at each reset, when nobody is in front of it: the
-//! windows stay, their surfaces and everything else are made again on a new device from the same
-//! adapter; images and model nodes load again on demand. What still grows (a few kB a frame, in
-//! lavapipe's threads, live until the process ends) belongs to the driver's process-wide state:
-//! renewing the instance and adapter too did not reach it and fragmented the heap more (Soak).
+//! Renewal: a driver may keep memory it allocates while drawing until its device is destroyed
+//! (lavapipe did, a whole compiled vertex shader for every pass that drew splats, until the splat
+//! shader stopped branching on a uniform alone: `shaders/splat.wgsl`; and renewing only the
+//! renderer left its pipelines behind: docs/performance.md, Soak). The kiosk therefore renews the
+//! whole device at each reset, when nobody is in front of it: the windows stay, their surfaces and
+//! everything else are made again on a new device from the same adapter; images and model nodes
+//! load again on demand. `ISOKIOSK_RENEW=never` keeps the device, to measure the difference.
 
 use super::paint::Painter;
 use super::surface::{Canvas, GpuWindow};
