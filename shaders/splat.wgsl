@@ -125,9 +125,9 @@ fn splat_vertex(vi: u32, inst: VertexIn, push: f32) -> VertexOut {
     let center = inst.pos + frame.offset.xyz;
     let n = facing(oct_decode(inst.normal_oct), center);
     // Oriented disc: a tangent basis of the normal; round points: the camera's axes. Chosen with
-    // `select`, not `if`: lavapipe compiles a new vertex shader for every draw whose shader
-    // branches on a uniform alone (it inlines such uniforms), and keeps each one until the
-    // device is destroyed (docs/performance.md, Soak).
+    // `select`, not `if`: lavapipe compiles a new vertex shader for every pass that draws with
+    // a shader branching on a uniform alone (it inlines such uniforms), and keeps each one until
+    // the device is destroyed (docs/performance.md, Soak).
     let a = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
     let tangent = normalize(cross(n, a));
     let discs = frame.params.x < 0.5;

@@ -4,6 +4,7 @@ use glam::DVec3;
 use kiosk_content::MappedStore;
 use kiosk_import::source::{self, InputPoint, ReadOptions};
 use kiosk_import::{BuildParams, BuildSummary, Builder};
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 
 /// The test data directory (copied into the repository with its SOURCES).
@@ -63,4 +64,16 @@ pub fn transform(points: &[InputPoint], scale: f64, offset: DVec3) -> Vec<InputP
             ..*p
         })
         .collect()
+}
+
+/// Runs the test `test` of this test binary again in a child process, alone and with `var` set
+/// to `value` (the child tells by `var` that it is the child): for what must not share the
+/// process with the tests running beside it (an abort, the heap's counters).
+pub fn rerun_in_child(test: &str, var: &str, value: impl AsRef<OsStr>) -> std::process::Output {
+    let exe = std::env::current_exe().expect("the test binary");
+    std::process::Command::new(exe)
+        .args([test, "--exact", "--nocapture", "--test-threads=1"])
+        .env(var, value)
+        .output()
+        .expect("run the test binary again")
 }

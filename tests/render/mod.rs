@@ -514,12 +514,7 @@ fn drawing_frames_does_not_grow_the_heap() {
         heap_growth_over_frames();
         return;
     }
-    let exe = std::env::current_exe().expect("the test binary");
-    let out = std::process::Command::new(exe)
-        .args([NAME, "--exact", "--nocapture", "--test-threads=1"])
-        .env(CHILD, "1")
-        .output()
-        .expect("run the test binary again");
+    let out = common::rerun_in_child(NAME, CHILD, "1");
     let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
     assert!(out.status.success(), "the measurement failed:\n{stdout}\n{stderr}");
     assert!(stdout.contains("1 passed"), "the measurement did not run:\n{stdout}\n{stderr}");

@@ -190,12 +190,7 @@ fn broken_survey_files_never_panic_and_errors_say_something() {
 /// the file), so that a reader that aborts the process fails the test instead of ending the
 /// whole run; returns what the child printed: `loaded N points` or `error: MESSAGE`.
 fn read_in_child(test: &str, var: &str, path: &std::path::Path) -> String {
-    let exe = std::env::current_exe().expect("the test binary");
-    let out = std::process::Command::new(exe)
-        .args([test, "--exact", "--nocapture", "--test-threads=1"])
-        .env(var, path)
-        .output()
-        .expect("run the test binary");
+    let out = crate::common::rerun_in_child(test, var, path);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),

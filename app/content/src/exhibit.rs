@@ -96,10 +96,7 @@ pub fn sweep_cache(cache: &Path, keep: &Path, source: &Path) {
         if store == keep || !stale {
             continue;
         }
-        let (Ok(Some(_lock)), Ok(lock_path)) = (OutputLock::try_acquire(&store), OutputLock::file_of(&store))
-        else {
-            continue;
-        };
+        let Ok(Some(lock)) = OutputLock::try_acquire(&store) else { continue };
         match std::fs::remove_file(&store) {
             Ok(()) => {
                 tracing::info!("cache: removed {} (made from {named}, now replaced or gone)", store.display())
@@ -111,7 +108,7 @@ pub fn sweep_cache(cache: &Path, keep: &Path, source: &Path) {
             }
         }
         let _ = std::fs::remove_file(&note);
-        let _ = std::fs::remove_file(&lock_path);
+        let _ = std::fs::remove_file(lock.lock_file());
     }
 }
 

@@ -112,6 +112,7 @@ fn check_input(scan: &Path, out: &Path) -> anyhow::Result<()> {
 /// An exclusive lock on an output file (on `.NAME.lock` beside it), held until dropped.
 pub struct OutputLock {
     out: PathBuf,
+    lock: PathBuf,
     _file: std::fs::File,
 }
 
@@ -127,16 +128,10 @@ impl OutputLock {
         Self::lock(out, false)
     }
 
-    /// The lock file of `out`.
-    pub fn file_of(out: &Path) -> anyhow::Result<PathBuf> {
-        let (dir, name) = split(out)?;
-        Ok(dir.join(format!(".{name}.lock")))
-    }
-
     fn lock(out: &Path, wait: bool) -> anyhow::Result<Option<Self>> {
         let (dir, name) = split(out)?;
         std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        let path = Self::file_of(out)?;
+        let path = dir.join(format!(".{name}.lock"));
         let file = std::fs::OpenOptions::new()
             .create(true)
             .truncate(false)
@@ -162,12 +157,17 @@ impl OutputLock {
                 tracing::info!("removed {}, left by an interrupted import", entry.path().display());
             }
         }
-        Ok(Some(Self { out: out.to_path_buf(), _file: file }))
+        Ok(Some(Self { out: out.to_path_buf(), lock: path, _file: file }))
     }
 
     /// The output it locks.
     pub fn path(&self) -> &Path {
         &self.out
+    }
+
+    /// Its lock file (`.NAME.lock` beside the output).
+    pub fn lock_file(&self) -> &Path {
+        &self.lock
     }
 }
 
