@@ -48,6 +48,33 @@ pub fn try_build(points: &[InputPoint], params: BuildParams) -> Result<Built, ki
     Ok(Built { store, summary })
 }
 
+/// Writes the points of `tests/data/formats/simple.laz` (laspy's test cloud) twice as LAS 1.2
+/// files in `dir` with a scale of 1 mm: `far.las` moved by `shift` metres (offsets in its
+/// header), `near.las` where it is. Returns (far, near, the original points).
+pub fn las_far_and_near(dir: &Path, shift: [f64; 3]) -> (PathBuf, PathBuf, Vec<las::Point>) {
+    let mut reader = las::Reader::from_path(data("formats/simple.laz")).expect("read simple.laz");
+    let original: Vec<las::Point> =
+        reader.read_all().expect("points").points().map(|p| p.expect("point")).collect();
+    let mut header = las::Builder::from((1, 2));
+    header.point_format = *reader.header().point_format();
+    let (far, near) = (dir.join("far.las"), dir.join("near.las"));
+    for (path, d) in [(&far, shift), (&near, [0.0; 3])] {
+        let mut h = header.clone();
+        let axis = |offset| las::Transform { scale: 0.001, offset };
+        h.transforms = las::Vector { x: axis(d[0]), y: axis(d[1]), z: axis(d[2]) };
+        let mut w = las::Writer::from_path(path, h.into_header().expect("header")).expect("writer");
+        for p in &original {
+            let mut q = p.clone();
+            q.x += d[0];
+            q.y += d[1];
+            q.z += d[2];
+            w.write_point(q).expect("write");
+        }
+        w.close().expect("close");
+    }
+    (far, near, original)
+}
+
 /// Small nodes so that real scans of a few ten thousand points make deep trees.
 pub fn small_nodes() -> BuildParams {
     BuildParams { node_points: 512, chunk_points: 1_000_000, ..BuildParams::default() }

@@ -300,6 +300,36 @@ fn the_model_translated_by_ten_million_metres_renders_the_same_image() {
 }
 
 #[test]
+fn a_las_cloud_a_million_metres_away_renders_like_the_cloud_at_the_origin() {
+    // The same survey cloud with and without offsets of 10⁶ m in its LAS header, each imported
+    // as a curator would, seen from the same place relative to it.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let shift = DVec3::new(1.0e6, 2.0e6, 5.0e2);
+    let (far, near, _) = common::las_far_and_near(dir.path(), shift.to_array());
+    let import = |scan: &Path| {
+        let out = scan.with_extension("kstore");
+        kiosk_content::import::import(scan, &out, &kiosk_content::import::ImportOptions::default())
+            .unwrap_or_else(|e| panic!("{}: {e:#}", scan.display()));
+        kiosk_content::open_store(&out).unwrap_or_else(|e| panic!("{e:#}"))
+    };
+    let (far, near) = (import(&far), import(&near));
+    assert!(
+        (far.origin() - near.origin() - shift).abs().max_element() < 1.0e-3,
+        "the offsets reach the origin"
+    );
+    let near_cam = start(&near);
+    let far_cam = Camera { eye: near_cam.eye + shift, target: near_cam.target + shift, ..near_cam };
+    let size = (200, 150);
+    let a = render(&near, &near_cam, size, &RenderSettings::default());
+    let b = render(&far, &far_cam, size, &RenderSettings::default());
+    let bg = image::Rgba(a.get_pixel(0, 0).0);
+    let drawn = a.pixels().filter(|&&p| p != bg).count();
+    assert!(drawn > 1000, "the cloud covers {drawn} pixels");
+    let s = ssim(&a, &b);
+    assert!(s > 0.995, "SSIM {s}");
+}
+
+#[test]
 fn a_close_up_at_the_minimum_distance_has_no_holes() {
     let store = &bunny().store;
     let cut = kiosk_core::Cut::leaves(store);

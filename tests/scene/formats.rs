@@ -58,35 +58,8 @@ fn a_las_cloud_a_million_metres_away_keeps_its_millimetres() {
     // is the original plus the offset to the millimetre, and the stores built from both have the
     // same samples relative to their origins.
     let dir = tempfile::tempdir().expect("temp dir");
-    let src = data("simple.laz");
-    let mut reader = las::Reader::from_path(&src).expect("read");
-    let original: Vec<las::Point> =
-        reader.read_all().expect("points").points().map(|p| p.expect("point")).collect();
     let shift = [1.0e6, 2.0e6, 5.0e2];
-    let mut header = las::Builder::from((1, 2));
-    header.point_format = *reader.header().point_format();
-    header.transforms = las::Vector {
-        x: las::Transform { scale: 0.001, offset: shift[0] },
-        y: las::Transform { scale: 0.001, offset: shift[1] },
-        z: las::Transform { scale: 0.001, offset: shift[2] },
-    };
-    let far = dir.path().join("far.las");
-    let near = dir.path().join("near.las");
-    for (path, d) in [(&far, shift), (&near, [0.0; 3])] {
-        let mut h = header.clone();
-        h.transforms.x.offset = d[0];
-        h.transforms.y.offset = d[1];
-        h.transforms.z.offset = d[2];
-        let mut w = las::Writer::from_path(path, h.into_header().expect("header")).expect("writer");
-        for p in &original {
-            let mut q = p.clone();
-            q.x += d[0];
-            q.y += d[1];
-            q.z += d[2];
-            w.write_point(q).expect("write");
-        }
-        w.close().expect("close");
-    }
+    let (far, near, original) = crate::common::las_far_and_near(dir.path(), shift);
     let (a, _) = read_all(&far, &ReadOptions::default()).expect("far");
     let (b, _) = read_all(&near, &ReadOptions::default()).expect("near");
     assert_eq!(a.len(), original.len());
