@@ -154,8 +154,8 @@ pub const MAX_K: usize = 32;
 
 /// Estimates spacing, and the normal where `need_normal` says so (others get zero), for the
 /// points of `positions` (spatially sorted, with `boxes` from [`boxtree::build_boxes`]) from
-/// their `k` nearest neighbours (clamped to 2..=[`MAX_K`]). `None` when there are fewer than two
-/// distinct points.
+/// their `k` nearest neighbours (clamped to 2..=[`MAX_K`], and to the other points there are).
+/// `None` when there are fewer than two distinct points.
 ///
 /// Only the leaves of the implicit hierarchy (fewer than [`boxtree::LEAF_POINTS`] neighbouring
 /// points, at least half as many) that hold a point that needs a normal or a spacing
@@ -181,7 +181,8 @@ pub fn estimate(
     if positions.len() < 2 {
         return None;
     }
-    let k = k.clamp(2, (positions.len() - 1).min(MAX_K));
+    // At least 2 neighbours, unless the points are fewer: two points are each other's only one.
+    let k = k.clamp(2, MAX_K).min(positions.len() - 1);
     let centroid = positions.iter().fold(Vec3::ZERO, |a, p| a + *p) / positions.len() as f32;
     let soa = Soa::new(positions);
     let search = LeafSearch { positions, soa: &soa, boxes, k: k + 1 };
@@ -685,6 +686,20 @@ mod tests {
                 searched < pts.len() && shared > pts.len() / 4,
                 "stride {stride}: {searched} searched, {shared} shared"
             );
+        }
+    }
+
+    #[test]
+    fn two_or_three_points_are_estimated_from_the_neighbours_they_have() {
+        for n in [2usize, 3] {
+            let mut pts: Vec<Vec3> = (0..n).map(|i| Vec3::new(i as f32, (i * i) as f32 * 0.5, 0.0)).collect();
+            let boxes = sorted_tree(&mut pts);
+            let est = estimate(&pts, &boxes, 12, 1, &|_| true, &|_| true).expect("distinct points");
+            assert_eq!(est.len(), n);
+            for e in &est {
+                assert!(e.spacing > 0.0 && e.spacing.is_finite(), "{n} points: {e:?}");
+                assert!((e.normal.length() - 1.0).abs() < 1e-5, "{n} points: {e:?}");
+            }
         }
     }
 
