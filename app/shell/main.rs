@@ -268,7 +268,16 @@ fn main() -> anyhow::Result<()> {
             opts.build.node_points = node_points;
             opts.build.spacing_stride = spacing_stride as usize;
             opts.read.drop_invalid = drop_invalid;
-            let report = import(&scan, &output, &opts)?;
+            let report = import(&scan, &output, &opts).inspect_err(|e| {
+                // The readers name no command-line flag; the command says what the user can do.
+                let non_finite = e.chain().any(|c| {
+                    c.downcast_ref::<kiosk_import::ReadError<kiosk_import::BuildError>>()
+                        .is_some_and(kiosk_import::ReadError::is_non_finite)
+                });
+                if non_finite {
+                    eprintln!("hint: --drop-invalid skips samples with non-finite coordinates");
+                }
+            })?;
             for w in &report.warnings {
                 eprintln!("warning: {}: {w}", scan.display());
             }

@@ -115,3 +115,30 @@ fn an_import_onto_its_input_or_of_a_store_is_refused() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("is already a store"), "{err}");
 }
+
+#[test]
+fn a_scan_with_a_non_finite_coordinate_names_the_row_and_the_flag_that_skips_it() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let scan = dir.path().join("nan.ply");
+    std::fs::write(
+        &scan,
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+         end_header\n0 0 0\n1 nan 0\n0 1 0\n",
+    )
+    .expect("write");
+    let out = dir.path().join("nan.kstore");
+    let o = kiosk().args(["import", "--quiet"]).arg(&scan).arg("-o").arg(&out).output().expect("run kiosk");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("nan.ply") && err.contains("row 2 (line 9): non-finite coordinate"), "{err}");
+    assert!(err.contains("--drop-invalid skips samples with non-finite coordinates"), "{err}");
+    // With the flag, the other two samples make a store.
+    let o = kiosk()
+        .args(["import", "--quiet", "--drop-invalid"])
+        .arg(&scan)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .expect("run kiosk");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}

@@ -83,15 +83,7 @@ pub fn import_locked(scan: &Path, lock: &OutputLock, opts: &ImportOptions) -> an
     let pb = bar(opts.progress);
     pb.set_message("reading");
     let report = source::read_file(scan, &opts.read, &mut Feed { builder: &mut builder, pb: &pb, read: 0 })
-        .map_err(|e| {
-        // The readers name no command-line flag; the command adds what the user can do.
-        let hint = if e.is_non_finite() {
-            " (--drop-invalid skips samples with non-finite coordinates)"
-        } else {
-            ""
-        };
-        anyhow::Error::new(e).context(format!("{}{hint}", scan.display()))
-    })?;
+        .map_err(|e| anyhow::Error::new(e).context(scan.display().to_string()))?;
     let staged = work.path.join("store.kstore");
     let summary = build(builder, &staged, &pb).with_context(|| format!("building {}", lock.out.display()))?;
     std::fs::rename(&staged, &lock.out).with_context(|| format!("cannot write {}", lock.out.display()))?;

@@ -216,6 +216,20 @@ pub enum PlyError {
         /// What is wrong.
         msg: String,
     },
+    /// A vertex with a non-finite coordinate (which [`crate::ReadOptions::drop_invalid`] drops).
+    #[error("element 'vertex' row {row}{}: non-finite coordinate ({x}, {y}, {z})", .line.map(|l| format!(" (line {l})")).unwrap_or_default())]
+    NonFinite {
+        /// 1-based row within the vertex element.
+        row: u64,
+        /// 1-based file line (ASCII bodies).
+        line: Option<usize>,
+        /// The coordinates.
+        x: f64,
+        /// The coordinates.
+        y: f64,
+        /// The coordinates.
+        z: f64,
+    },
 }
 
 fn herr(line: usize, msg: impl Into<String>) -> PlyError {

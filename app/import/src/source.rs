@@ -144,11 +144,12 @@ impl<E> ReadError<E> {
     /// [`ReadOptions::drop_invalid`] would have dropped).
     pub fn is_non_finite(&self) -> bool {
         use crate::formats::las::LasError;
-        match self {
-            Self::NonFinite { .. } | Self::Las(LasError::NonFinite { .. }) => true,
-            Self::Ply(PlyError::Row { msg, .. }) => msg.starts_with("non-finite coordinate"),
-            _ => false,
-        }
+        matches!(
+            self,
+            Self::NonFinite { .. }
+                | Self::Las(LasError::NonFinite { .. })
+                | Self::Ply(PlyError::NonFinite { .. })
+        )
     }
 }
 

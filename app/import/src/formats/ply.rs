@@ -316,12 +316,7 @@ impl ply::Convert for PlyRows {
                     }
                     return Ok(());
                 }
-                return Err(PlyError::Row {
-                    element: "vertex".into(),
-                    row: ri + 1,
-                    line: None,
-                    msg: format!("non-finite coordinate ({x}, {y}, {z})"),
-                });
+                return Err(PlyError::NonFinite { row: ri + 1, line: None, x, y, z });
             }
             let normal = self
                 .normal_idx

@@ -215,6 +215,9 @@ fn parse_piece<C: Convert>(
                 PlyError::Row { element, row, line: None, msg } => {
                     PlyError::Row { element, row, line: Some(line), msg }
                 }
+                PlyError::NonFinite { row, line: None, x, y, z } => {
+                    PlyError::NonFinite { row, line: Some(line), x, y, z }
+                }
                 other => other,
             });
             return;
