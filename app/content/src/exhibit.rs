@@ -124,17 +124,18 @@ pub fn cache_dir() -> PathBuf {
 }
 
 /// The file name of the store cached from the scan `file`: its name and a hash of its path, size
-/// and modification time, the builder's settings, the builder's `revision` and the store
-/// format's version — a store made otherwise is not reused.
+/// and modification time, the readers' and the builder's settings, the importer's `revision`
+/// and the store format's version — a store made otherwise is not reused.
 fn cache_name(file: &Path, options: &ImportOptions, revision: u32) -> anyhow::Result<String> {
     let meta = std::fs::metadata(file).with_context(|| format!("cannot read {}", file.display()))?;
     let modified = meta.modified().ok().and_then(|m| m.duration_since(std::time::UNIX_EPOCH).ok());
     let key = format!(
-        "{}-{}-{}-{:?}-{revision}-{}",
+        "{}-{}-{}-{:?}-{:?}-{revision}-{}",
         file.canonicalize().unwrap_or(file.to_path_buf()).display(),
         meta.len(),
         modified.map_or(0, |d| d.as_secs()),
         options.build,
+        options.read,
         kiosk_core::scene::store::VERSION
     );
     let hash = crc32fast::hash(key.as_bytes());
@@ -412,7 +413,10 @@ mod tests {
         assert_ne!(base, name(&options, 1), "an earlier builder");
         let mut other = options.clone();
         other.build.node_points *= 2;
-        assert_ne!(base, name(&other, 2), "other settings");
+        assert_ne!(base, name(&other, 2), "other builder settings");
+        let mut other = options.clone();
+        other.read.texel_density *= 2.0;
+        assert_ne!(base, name(&other, 2), "other reader settings");
         std::fs::write(&scan, "v 0 0 0\nv 1 0 0\nv 0 1 0\n").expect("edit");
         assert_ne!(base, name(&options, 2), "an edited scan");
         let e = cache_name(&dir.path().join("gone.obj"), &options, 2).expect_err("no file");

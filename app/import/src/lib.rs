@@ -12,11 +12,13 @@ pub mod writer;
 
 pub use build::{BuildError, BuildParams, BuildSummary, Builder, Stage};
 
-/// What the builder makes of a scan, as a number: bumped by every change that makes different
-/// stores from the same input with the same settings, so that stores cached from a scan (the
-/// kiosk's exhibits) are built again by the new code. 2: a mesh's spacings from its faces; 3:
-/// normals of opposite orientation merge in simplification.
-pub const BUILDER_REVISION: u32 = 3;
+/// What the importer (readers and builder) makes of a scan, as a number: bumped by every change
+/// that makes different stores from the same input with the same settings, so that stores
+/// cached from a scan (the kiosk's exhibits) are built again by the new code. 2: a mesh's
+/// spacings from its faces; 3: normals of opposite orientation merge in simplification; 4: a
+/// mesh with materials (OBJ with MTL, glTF, PLY naming a texture) is sampled on its surface with
+/// its texture's colours, where it gave its vertices in grey before.
+pub const BUILDER_REVISION: u32 = 4;
 pub use source::{InputPoint, ReadError, ReadOptions, ReadReport};
 
 /// Reads into `buf` until it is full or the input ends; returns the bytes read.
