@@ -1,5 +1,5 @@
 //! Text read in blocks of whole lines: the reading thread reads each block (inflated ahead on a
-//! thread of its own when gzip'd: `source::ReadAhead`), scans it for where its lines belong,
+//! thread of its own when gzip'd: `formats::gzip`), scans it for where its lines belong,
 //! parses it in pieces on the rayon pool and visits the result, one block after the other. The
 //! ASCII PLY body and OBJ files are read this way; a format says how a block parses
 //! ([`Format`]) and its reader visits the results, so errors come in file order as a

@@ -1,6 +1,8 @@
 //! The reader layer: which format a scan file is in, decided from its content (the extension
-//! only tells PLY from OBJ inside gzip, and `.gltf` JSON), and one module per survey format with
-//! its own typed error. PLY and OBJ are read by [`crate::source`] (and [`crate::ply`]).
+//! only tells PLY from OBJ inside gzip, and `.gltf` JSON), and one module per format: LAS/LAZ,
+//! E57 and glTF with their own typed errors, PLY over the parser of [`crate::ply`] (its
+//! [`crate::ply::PlyError`]), OBJ over the line reader; [`crate::source`] dispatches a file to
+//! its reader.
 
 pub mod e57;
 pub mod gltf;
