@@ -8,3 +8,4 @@ mod import_safety;
 mod mutations;
 mod oracles;
 mod store_file;
+mod textured_features;
