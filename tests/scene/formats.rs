@@ -400,3 +400,91 @@ fn compressed_and_broken_gltf_files_are_clear_errors() {
         read_all(&dir.path().join("BoxTextured.gltf"), &ReadOptions::default()).expect_err("bin").to_string();
     assert!(e.contains("buffer 0") && e.contains("BoxTextured0.bin"), "{e}");
 }
+
+#[test]
+fn e57_scans_in_spherical_and_cartesian_coordinates_merge_with_their_poses() {
+    use e57::{Quaternion, Record, RecordValue, Transform, Translation};
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("two-scans.e57");
+    let mut w = e57::E57Writer::from_file(&path, "two-scans").expect("writer");
+    // Scan 1: Cartesian, coloured, turned 90° about z and moved 10 m along x; its second point
+    // is flagged invalid, its fourth has a direction only (state 1: no usable position).
+    let prototype = vec![
+        Record::CARTESIAN_X_F64,
+        Record::CARTESIAN_Y_F64,
+        Record::CARTESIAN_Z_F64,
+        Record::CARTESIAN_INVALID_STATE,
+        Record::COLOR_RED_U8,
+        Record::COLOR_GREEN_U8,
+        Record::COLOR_BLUE_U8,
+    ];
+    let mut pc = w.add_pointcloud("cartesian", prototype).expect("scan 1");
+    let half = std::f64::consts::FRAC_1_SQRT_2;
+    pc.set_transform(Some(Transform {
+        rotation: Quaternion { w: half, x: 0.0, y: 0.0, z: half },
+        translation: Translation { x: 10.0, y: 0.0, z: 0.0 },
+    }));
+    // Four points: the 2-bit states fill a whole byte (the e57 crate reads a scan whose
+    // bit-packed states fill less than a byte as an internal error).
+    for (p, state, rgb) in [
+        ([1.0, 0.0, 0.0], 0, [255, 0, 0]),
+        ([5.0, 5.0, 5.0], 2, [0, 255, 0]),
+        ([0.0, 2.0, 0.0], 0, [0, 0, 255]),
+        ([0.0, 0.0, 4.0], 1, [0, 0, 0]),
+    ] {
+        let mut v: Vec<RecordValue> = p.into_iter().map(RecordValue::Double).collect();
+        v.push(RecordValue::Integer(state));
+        v.extend(rgb.map(RecordValue::Integer));
+        pc.add_point(v).expect("point");
+    }
+    pc.finalize().expect("scan 1 written");
+    // Scan 2: spherical (range, azimuth, elevation), intensity only, no pose; its last point is
+    // flagged invalid.
+    let prototype = vec![
+        Record::SPHERICAL_RANGE_F64,
+        Record::SPHERICAL_AZIMUTH_F64,
+        Record::SPHERICAL_ELEVATION_F64,
+        Record::SPHERICAL_INVALID_STATE,
+        Record::INTENSITY_UNIT_F32,
+    ];
+    let mut pc = w.add_pointcloud("spherical", prototype).expect("scan 2");
+    let right = std::f64::consts::FRAC_PI_2;
+    for (r, az, el, state, i) in [
+        (2.0, 0.0, 0.0, 0, 0.5f32),
+        (3.0, right, 0.0, 0, 1.0),
+        (1.0, 0.0, right, 0, 0.0),
+        (9.0, 1.0, 0.2, 2, 0.3),
+    ] {
+        let v = vec![
+            RecordValue::Double(r),
+            RecordValue::Double(az),
+            RecordValue::Double(el),
+            RecordValue::Integer(state),
+            RecordValue::Single(i),
+        ];
+        pc.add_point(v).expect("point");
+    }
+    pc.finalize().expect("scan 2 written");
+    w.finalize().expect("file written");
+
+    let (points, report) = read_all(&path, &ReadOptions::default()).expect("read");
+    let expect: [([f64; 3], [u8; 3]); 5] = [
+        ([10.0, 1.0, 0.0], [255, 0, 0]),
+        ([8.0, 0.0, 0.0], [0, 0, 255]),
+        ([2.0, 0.0, 0.0], [128, 128, 128]),
+        ([0.0, 3.0, 0.0], [255, 255, 255]),
+        ([0.0, 0.0, 1.0], [0, 0, 0]),
+    ];
+    assert_eq!(points.len(), expect.len(), "{points:?}");
+    for (p, (pos, rgb)) in points.iter().zip(expect) {
+        assert!((p.pos - glam::DVec3::from_array(pos)).abs().max_element() < 1e-9, "{:?} vs {pos:?}", p.pos);
+        for (got, want) in p.color.iter().zip(rgb) {
+            assert!(got.abs_diff(want) <= 1, "{:?} vs {rgb:?} at {pos:?}", p.color);
+        }
+    }
+    assert!(
+        report.warnings.iter().any(|w| w.starts_with("3 points flagged invalid")),
+        "{:?}",
+        report.warnings
+    );
+}
