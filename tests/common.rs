@@ -12,10 +12,26 @@ pub fn data(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(rel)
 }
 
-/// Reads a scan into memory.
+/// Reads a scan into memory, as `kiosk import` does.
 pub fn read(rel: &str) -> Vec<InputPoint> {
+    read_with(rel, &ReadOptions::default())
+}
+
+/// Reader options that keep a plain mesh as its vertices alone (no samples on its large
+/// triangles): for tests of what the readers make of rows and vertices, and of what the rest
+/// does with exactly those points.
+pub fn vertices_only() -> ReadOptions {
+    ReadOptions { fill_plain_meshes: false, ..ReadOptions::default() }
+}
+
+/// Reads a scan into memory as its vertices alone ([`vertices_only`]).
+pub fn read_vertices(rel: &str) -> Vec<InputPoint> {
+    read_with(rel, &vertices_only())
+}
+
+fn read_with(rel: &str, opts: &ReadOptions) -> Vec<InputPoint> {
     let path = data(rel);
-    match source::read_all(&path, &ReadOptions::default()) {
+    match source::read_all(&path, opts) {
         Ok((pts, _)) => pts,
         Err(e) => panic!("{}: {e}", path.display()),
     }

@@ -151,11 +151,11 @@ enum Command {
         #[arg(long, default_value_t = kiosk_import::ReadOptions::default().texel_density,
               value_parser = texel_density)]
         texel_density: f32,
-        /// Sample the triangles of a plain mesh (no materials) that are larger than the model's
-        /// sample spacing (its bounding box's diagonal / 256) on their surface: a low-poly mesh
-        /// gets no holes and no giant discs.
+        /// Keep a plain mesh (no materials) as its vertices alone: by default its triangles
+        /// larger than the model's sample spacing (its bounding box's diagonal / 256) are
+        /// sampled on their surface, so that a low-poly mesh has no holes and no giant discs.
         #[arg(long)]
-        fill_large_triangles: bool,
+        vertices_only: bool,
         /// No progress bar.
         #[arg(long, short)]
         quiet: bool,
@@ -259,12 +259,12 @@ fn main() -> anyhow::Result<()> {
             spacing_stride,
             drop_invalid,
             texel_density,
-            fill_large_triangles,
+            vertices_only,
             quiet,
         } => {
             let mut opts = ImportOptions { progress: !quiet, ..Default::default() };
             opts.read.texel_density = texel_density;
-            opts.read.fill_plain_meshes = fill_large_triangles;
+            opts.read.fill_plain_meshes = !vertices_only;
             opts.build.node_points = node_points;
             opts.build.spacing_stride = spacing_stride as usize;
             opts.read.drop_invalid = drop_invalid;

@@ -17,7 +17,10 @@ fn session() -> Script {
 /// The same session on the model translated and scaled gives the same trace up to the
 /// transform.
 fn assert_same_trace_under(scale: f64, offset: DVec3) {
-    let pts = common::read("scans/stanford-bunny/bun_zipper_res2.ply");
+    // The vertices alone: the samples a plain mesh's large triangles get lie on regular grids,
+    // whose exactly equal distances rounding under the transform breaks one way or the other
+    // (another merge, another hierarchy); invariance holds where no distances tie.
+    let pts = common::read_vertices("scans/stanford-bunny/bun_zipper_res2.ply");
     let a = common::build(&pts, common::small_nodes());
     let b = common::build(&common::transform(&pts, scale, offset), common::small_nodes());
     let ta = run(&a.store, &session(), ControllerKind::IsoCam);

@@ -74,7 +74,7 @@ fn ascii_rows_equal_binary_rows_across_blocks() {
     assert_eq!(a.len(), 180_000);
     assert_eq!(a, b);
     // And through the scan reader: the same points, with face normals, either way.
-    let opts = ReadOptions::default();
+    let opts = crate::common::vertices_only();
     let (pa, ra) = source::read_ply_bytes(ascii.as_bytes(), &opts).expect("ascii points");
     let (pb, rb) = source::read_ply_bytes(&bin, &opts).expect("binary points");
     assert_eq!((ra.points, ra.faces_used), (60_000, 120_000));
@@ -123,7 +123,8 @@ fn errors_in_later_blocks_name_their_row_and_line() {
     // Of two errors, the earlier row's, even when the visit finds it and the parser the later.
     let first = line_of_vertex(&ascii, 30_000);
     let bad = with_line(&with_line(&ascii, first, "nan 0 0 1 1"), line, "1 2 oops 3 4");
-    let e = source::read_ply_bytes(bad.as_bytes(), &ReadOptions::default()).expect_err("nan").to_string();
+    let e =
+        source::read_ply_bytes(bad.as_bytes(), &crate::common::vertices_only()).expect_err("nan").to_string();
     assert!(e.starts_with(&format!("element 'vertex' row 30000 (line {first}): non-finite")), "{e}");
 }
 
@@ -199,7 +200,7 @@ fn a_bad_row_before_a_read_error_is_the_error_reported() {
     let upto = bad.match_indices('\n').nth(line + 4000).expect("lines").0;
     let e = source::read_obj(
         &mut BufReader::new(FailingAfter(&bad.as_bytes()[..upto])),
-        &ReadOptions::default(),
+        &crate::common::vertices_only(),
         &mut |_| Ok(()),
     )
     .expect_err("bad vertex")
@@ -216,13 +217,13 @@ fn junk_after_the_last_element_is_a_warning_not_a_failure() {
     let dir = tempfile::tempdir().expect("temp dir");
     let path = dir.path().join("padded.ply.gz");
     std::fs::write(&path, [&gz[..], &[0u8; 512]].concat()).expect("write");
-    let (pts, rep) = source::read_all(&path, &ReadOptions::default()).expect("loads");
+    let (pts, rep) = source::read_all(&path, &crate::common::vertices_only()).expect("loads");
     assert_eq!(pts.len(), 5205);
     assert!(rep.warnings.iter().any(|w| w.contains("could not be read")), "{:?}", rep.warnings);
     // Missing rows are still an error, whatever comes after them.
     let cut = dir.path().join("cut.ply.gz");
     std::fs::write(&cut, &gz[..gz.len() / 2]).expect("write");
-    let e = source::read_all(&cut, &ReadOptions::default()).expect_err("half a scan").to_string();
+    let e = source::read_all(&cut, &crate::common::vertices_only()).expect_err("half a scan").to_string();
     assert!(e.starts_with("read error:"), "{e}");
 }
 
@@ -230,7 +231,7 @@ fn junk_after_the_last_element_is_a_warning_not_a_failure() {
 fn unicode_whitespace_separates_values_as_before() {
     let ply = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n\
                end_header\n0.5\u{a0}1 2\n\u{3000}\n3 4\u{2003}5\n";
-    let (pts, _) = source::read_ply_bytes(ply.as_bytes(), &ReadOptions::default()).expect("loads");
+    let (pts, _) = source::read_ply_bytes(ply.as_bytes(), &crate::common::vertices_only()).expect("loads");
     let pos: Vec<[f64; 3]> = pts.iter().map(|p| p.pos.to_array()).collect();
     assert_eq!(pos, [[0.5, 1.0, 2.0], [3.0, 4.0, 5.0]]);
 }
@@ -316,7 +317,7 @@ fn read_obj(bytes: &[u8], opts: &ReadOptions) -> Result<Vec<source::InputPoint>,
 fn obj_points_equal_binary_ply_points_across_blocks() {
     let (obj, ply) = obj_and_ply(60_000);
     assert!(obj.len() > 4 << 20, "several blocks ({} bytes)", obj.len());
-    let opts = ReadOptions::default();
+    let opts = crate::common::vertices_only();
     let from_obj = read_obj(&obj, &opts).expect("obj");
     let (from_ply, rep) = source::read_ply_bytes(&ply, &opts).expect("ply");
     assert_eq!((rep.points, rep.faces_used), (60_000, 120_000));
@@ -332,7 +333,7 @@ fn obj_errors_name_their_line_in_later_blocks() {
     let text = String::from_utf8_lossy(&obj).into_owned();
     // Line 3 k + 4 is vertex k + 1 (three header lines, then v, vn, vt per vertex).
     let line = 3 * 50_000 + 4;
-    let opts = ReadOptions::default();
+    let opts = crate::common::vertices_only();
     let bad = with_line(&text, line, "v 1 2 three");
     assert_eq!(
         read_obj(bad.as_bytes(), &opts).expect_err("bad number"),
@@ -366,12 +367,12 @@ fn faces_before_their_vertices_are_checked_once_every_vertex_is_read() {
         )
     };
     let (pts, rep) =
-        source::read_ply_bytes(ply("3 0 1 2").as_bytes(), &ReadOptions::default()).expect("loads");
+        source::read_ply_bytes(ply("3 0 1 2").as_bytes(), &crate::common::vertices_only()).expect("loads");
     assert_eq!((pts.len(), rep.faces_used), (3, 1));
     for p in &pts {
         assert_eq!(p.normal.to_array(), [0.0, 0.0, 1.0], "the face's normal at {:?}", p.pos);
     }
-    let err = source::read_ply_bytes(ply("3 0 1 5").as_bytes(), &ReadOptions::default())
+    let err = source::read_ply_bytes(ply("3 0 1 5").as_bytes(), &crate::common::vertices_only())
         .expect_err("index out of range")
         .to_string();
     assert!(err.contains("a face refers to vertex 5 but the file has 3 vertices"), "{err}");

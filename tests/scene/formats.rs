@@ -298,6 +298,13 @@ fn a_low_poly_box_is_sampled_on_its_faces_without_holes() {
     }
     // Flat faces keep flat normals (the corners' averaged normals are not interpolated).
     assert!(points.iter().all(|p| p.normal.abs().max_element() > 0.999), "a bent normal");
+    // By default too (at the default spacing, the diagonal / 256), not only when asked; the
+    // vertices alone when asked.
+    let (filled, _) = read_all(&path, &ReadOptions::default()).expect("cube");
+    assert!(filled.len() > 100_000, "{} samples by default", filled.len());
+    let (vertices, _) =
+        read_all(&path, &ReadOptions { fill_plain_meshes: false, ..Default::default() }).expect("cube");
+    assert_eq!(vertices.len(), 8);
 }
 
 #[test]
@@ -346,7 +353,7 @@ fn a_textured_ply_without_its_image_names_it() {
     // The same file read as a stream (no directory to look in) is its vertices, with a warning.
     let mut r = std::io::BufReader::new(std::fs::File::open(&ply).expect("open"));
     let mut n = 0u64;
-    let rep = kiosk_import::source::read_ply(&mut r, &ReadOptions::default(), &mut |_| {
+    let rep = kiosk_import::source::read_ply(&mut r, &crate::common::vertices_only(), &mut |_| {
         n += 1;
         Ok(())
     })

@@ -69,7 +69,10 @@ fn exact_nearest_sample_matches_brute_force_and_kiddo() {
 #[test]
 fn fine_target_at_full_depth_is_within_the_sample_spacing() {
     for scan in ["scans/stanford-bunny/bun_zipper.ply", "scans/nefertiti/nefertiti-lowres.obj"] {
-        let built = common::build(&common::read(scan), small_nodes());
+        // The scans' vertices alone: where a fine mesh also has a few large triangles (the
+        // bunny's 507 samples on them), their grid samples sit beside much denser vertices and
+        // the worst query lands 1.03 spacings away: this oracle's bound is for one sampling.
+        let built = common::build(&common::read_vertices(scan), small_nodes());
         let store = &built.store;
         let cut = Cut::leaves(store);
         let params = QueryParams::default();

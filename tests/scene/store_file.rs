@@ -4,7 +4,7 @@ use crate::common::{self, small_nodes};
 use kiosk_core::StoreError;
 
 fn store_bytes() -> Vec<u8> {
-    let pts = common::read("scans/stanford-bunny/bun_zipper_res3.ply");
+    let pts = common::read_vertices("scans/stanford-bunny/bun_zipper_res3.ply");
     let dir = tempfile::tempdir().expect("tmp");
     let out = dir.path().join("m.kstore");
     let mut b = kiosk_import::Builder::new(small_nodes(), dir.path()).expect("params");

@@ -54,8 +54,8 @@ pub struct ReadOptions {
     pub fill_divisions: u32,
     /// Whether a plain mesh (PLY or OBJ without materials) samples its triangles larger than the
     /// model's sample spacing on their surface (no holes in a low-poly mesh) instead of giving
-    /// their vertices discs as large as the triangles. Off by default for now: it changes the
-    /// stores of today's low-poly meshes.
+    /// their vertices discs as large as the triangles. On by default; a fine scan's triangles
+    /// are smaller than that and keep their vertices alone.
     pub fill_plain_meshes: bool,
     /// Most samples the surfaces of a mesh may make (an error beyond: a corrupted file's texture
     /// coordinates, or a density too high).
@@ -69,7 +69,7 @@ impl Default for ReadOptions {
             face_vertex_limit: 8_000_000,
             texel_density: 1.0,
             fill_divisions: 256,
-            fill_plain_meshes: false,
+            fill_plain_meshes: true,
             max_samples: 2_000_000_000,
         }
     }
