@@ -44,6 +44,7 @@ pub use wgpu;
 
 mod blit;
 mod fullscreen;
+#[cfg(feature = "reference")]
 pub mod reference;
 pub use blit::{BLIT_WGSL, Blit};
 

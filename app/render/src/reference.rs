@@ -2,7 +2,8 @@
 //! (the same shader module, `vs_mesh` + `fs_mesh`, the same frame uniforms), to measure the
 //! splats against the surface they sample. A textured mesh is coloured from its texture per
 //! pixel (`vs_mesh_textured` + `fs_mesh_textured`), as a viewer of the textured scan shows it.
-//! A benchmark and test aid, not a kiosk mode: the mesh is uploaded at every call.
+//! A benchmark and test aid, not a kiosk mode (behind the `reference` feature, which only the
+//! tests and benchmarks turn on): the mesh is uploaded at every call.
 
 use crate::{
     DEPTH_FORMAT, FrameUniforms, Gpu, RenderError, RenderSettings, frame_binding, frame_uniforms, read_back,
