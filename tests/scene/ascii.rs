@@ -3,6 +3,7 @@
 //! lines and CRLF ends; and their errors, which must name the row and line a line-by-line reader
 //! would.
 
+use kiosk_import::formats::obj::ObjError;
 use kiosk_import::ply::{self, PlyError, Row};
 use kiosk_import::source::{self, ReadOptions};
 use std::fmt::Write as _;
@@ -350,6 +351,13 @@ fn obj_errors_name_their_line_in_later_blocks() {
         read_obj(bad.as_bytes(), &opts).expect_err("bad index"),
         format!("line {}: bad face index 'x/2'", faces + 100_000)
     );
+    // The errors are typed: the line as a number, the material library by its path.
+    let bad = with_line(&text, line, "v 1 2 three");
+    let e = source::read_obj(&mut BufReader::new(bad.as_bytes()), &opts, &mut |_| Ok(())).expect_err("bad");
+    assert!(matches!(e, source::ReadError::Obj(ObjError::Line { line: l, .. }) if l == line), "{e:?}");
+    let e = source::read_obj(&mut BufReader::new(&b"# nothing\n"[..]), &opts, &mut |_| Ok(()))
+        .expect_err("empty");
+    assert!(matches!(e, source::ReadError::Obj(ObjError::NoVertices)), "{e:?}");
     // A dropped vertex keeps its place: the faces after it still find theirs.
     let bad = with_line(&text, line, "v nan 2 3");
     let pts = read_obj(bad.as_bytes(), &ReadOptions { drop_invalid: true, ..opts }).expect("dropped");

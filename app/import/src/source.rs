@@ -131,6 +131,9 @@ pub enum ReadError<E = std::convert::Infallible> {
     /// The E57 reader failed.
     #[error("E57: {0}")]
     E57(#[source] crate::formats::e57::E57Error),
+    /// The OBJ reader failed.
+    #[error(transparent)]
+    Obj(#[from] crate::formats::obj::ObjError),
     /// The glTF reader failed.
     #[error("glTF: {0}")]
     Gltf(#[from] crate::formats::gltf::GltfError),

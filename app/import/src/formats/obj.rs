@@ -15,6 +15,32 @@ use glam::{DVec3, Vec3};
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
 
+/// Why an OBJ file or one of its material libraries cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum ObjError {
+    /// A line of the OBJ file.
+    #[error("line {line}: {msg}")]
+    Line {
+        /// 1-based line.
+        line: usize,
+        /// What is wrong.
+        msg: String,
+    },
+    /// A line of a material library (`mtllib`).
+    #[error("{file} line {line}: {msg}")]
+    Library {
+        /// The library's path.
+        file: String,
+        /// 1-based line.
+        line: usize,
+        /// What is wrong.
+        msg: String,
+    },
+    /// The file has no vertex.
+    #[error("the file has 0 vertices ('v' lines)")]
+    NoVertices,
+}
+
 /// Reads an OBJ stream: `v x y z [r g b]` vertices and `f` faces (for normals). Without the
 /// file's directory, material libraries are not looked for (a warning says so).
 pub fn read_obj<E>(
@@ -47,7 +73,7 @@ pub fn read_obj_in<E>(
     let mut current = NO_MATERIAL;
     let mut tri_mat: Vec<u32> = Vec::new();
     let mut tri_uv: Vec<[u32; 3]> = Vec::new();
-    let unusable = |l: usize, m: String| ReadError::Unusable(format!("line {l}: {m}"));
+    let unusable = |line: usize, msg: String| ReadError::Obj(ObjError::Line { line, msg });
     let mut visit = |_: &[u8], parsed: &mut ObjParsed| -> Result<(), ReadError<E>> {
         for piece in &mut parsed.pieces {
             let (mut v, mut f, mut names) = (0, 0, 0);
@@ -173,7 +199,7 @@ pub fn read_obj_in<E>(
         })
     })?;
     if report.rows == 0 {
-        return Err(ReadError::Unusable("the file has 0 vertices ('v' lines)".into()));
+        return Err(ReadError::Obj(ObjError::NoVertices));
     }
     if dropped > 0 {
         report.warnings.push(format!("{dropped} vertex row(s) with non-finite coordinates dropped"));
@@ -330,7 +356,9 @@ pub mod mtl {
             let l = raw.trim();
             let (kw, rest) = l.split_once(char::is_whitespace).unwrap_or((l, ""));
             let rest = rest.trim();
-            let bad = |what: &str| ReadError::Unusable(format!("{file} line {line}: {what}"));
+            let bad = |what: &str| {
+                ReadError::Obj(ObjError::Library { file: file.to_string(), line, msg: what.to_string() })
+            };
             match kw {
                 "newmtl" => out.push((rest.to_string(), new())),
                 "Kd" => {
