@@ -133,6 +133,14 @@ fn broken_survey_files_and_other_formats_are_clear_errors() {
     std::fs::write(&truncated, &bytes[..bytes.len() / 2]).expect("write");
     let e = read_all(&truncated, &ReadOptions::default()).expect_err("truncated LAZ").to_string();
     assert!(e.starts_with("LAS: "), "{e}");
+    // Compressed data damaged in the middle: the error names the points being decoded.
+    let damaged = dir.path().join("damaged.laz");
+    let mut bytes = std::fs::read(data("simple.laz")).expect("laz");
+    let mid = bytes.len() / 2;
+    bytes[mid..mid + 64].fill(0xff);
+    std::fs::write(&damaged, &bytes).expect("write");
+    let e = read_all(&damaged, &ReadOptions::default()).expect_err("damaged LAZ").to_string();
+    assert!(e.starts_with("LAS: points "), "{e}");
 }
 
 /// The BoxTextured sample (Khronos, `box-textured/` in SOURCES.md): its triangles in the model's

@@ -226,6 +226,10 @@ struct Feed<'a> {
 impl source::Sink for Feed<'_> {
     type Error = kiosk_import::BuildError;
 
+    fn expect(&mut self, points: u64) {
+        self.pb.set_length(points);
+    }
+
     fn point(&mut self, p: source::InputPoint) -> Result<(), Self::Error> {
         self.read += 1;
         if self.read.is_multiple_of(65536) {

@@ -195,6 +195,10 @@ pub trait Sink {
     /// Takes one point; an error stops the reading.
     fn point(&mut self, p: InputPoint) -> Result<(), Self::Error>;
 
+    /// How many points the reader expects to pass on, when the file says (a survey file's
+    /// header): for a progress bar. Nothing by default.
+    fn expect(&mut self, _points: u64) {}
+
     /// Takes points in file order, all at once (the vertices of a mesh, once its faces are
     /// applied; a batch of a survey file); one by one unless the consumer can do better.
     fn points(&mut self, points: Vec<InputPoint>) -> Result<(), Self::Error> {

@@ -15,12 +15,14 @@ pub enum E57Error<E = std::convert::Infallible> {
     #[error("{0}")]
     File(::e57::Error),
     /// A scan's points cannot be decoded.
-    #[error("scan {scan} ({name}): {source}")]
+    #[error("scan {scan} ({name}){}: {source}", .point.map(|p| format!(", point {p}")).unwrap_or_default())]
     Scan {
         /// 1-based scan index.
         scan: usize,
         /// The scan's name, if any.
         name: String,
+        /// 1-based index, within the scan, of the point being decoded (`None`: opening it).
+        point: Option<u64>,
         /// The decoder's error.
         source: ::e57::Error,
     },
@@ -40,7 +42,7 @@ impl<E> E57Error<E> {
     pub(crate) fn split(self) -> Result<E57Error, E> {
         match self {
             Self::File(e) => Ok(E57Error::File(e)),
-            Self::Scan { scan, name, source } => Ok(E57Error::Scan { scan, name, source }),
+            Self::Scan { scan, name, point, source } => Ok(E57Error::Scan { scan, name, point, source }),
             Self::Empty(n) => Ok(E57Error::Empty(n)),
             Self::Sink(e) => Err(e),
             Self::Corrupt(msg) => Ok(E57Error::Corrupt(msg)),
@@ -61,18 +63,25 @@ fn read_guarded<E>(path: &Path, sink: &mut dyn Sink<Error = E>) -> Result<ReadRe
     let clouds = reader.pointclouds();
     let mut report = ReadReport::default();
     let mut invalid = 0u64;
+    sink.expect(clouds.iter().map(|pc| pc.records).sum());
     for (i, pc) in clouds.iter().enumerate() {
-        let scan_err =
-            |source| E57Error::Scan { scan: i + 1, name: pc.name.clone().unwrap_or_default(), source };
+        let scan_err = |point: Option<u64>| {
+            move |source| E57Error::Scan {
+                scan: i + 1,
+                name: pc.name.clone().unwrap_or_default(),
+                point,
+                source,
+            }
+        };
         let has_color = pc.has_color();
         report.has_colors |= has_color || pc.has_intensity();
-        let mut points = reader.pointcloud_simple(pc).map_err(scan_err)?;
+        let mut points = reader.pointcloud_simple(pc).map_err(scan_err(None))?;
         points.spherical_to_cartesian(true);
         points.apply_pose(true);
         points.intensity_to_color(true);
         let mut out = Vec::with_capacity(CHUNK);
-        for p in points {
-            let p = p.map_err(scan_err)?;
+        for (k, p) in (1u64..).zip(points) {
+            let p = p.map_err(scan_err(Some(k)))?;
             report.rows += 1;
             let ::e57::CartesianCoordinate::Valid { x, y, z } = p.cartesian else {
                 invalid += 1;

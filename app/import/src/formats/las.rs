@@ -13,9 +13,19 @@ use std::path::Path;
 /// consumer of the points that stopped the reading.
 #[derive(Debug, thiserror::Error)]
 pub enum LasError<E = std::convert::Infallible> {
-    /// The `las` crate's error (header, VLRs, point records, LAZ chunks).
+    /// The `las` crate's error on the header, the variable-length records or the chunk table.
     #[error("{0}")]
     Las(#[from] ::las::Error),
+    /// The `las` crate's error on the point records (or their LAZ chunks) from `first` on.
+    #[error("points {first}–{last}: {source}")]
+    Records {
+        /// 1-based index of the first point of the batch being decoded.
+        first: u64,
+        /// 1-based index of its last point.
+        last: u64,
+        /// The decoder's error.
+        source: ::las::Error,
+    },
     /// A point with a non-finite coordinate.
     #[error("point {index}: non-finite coordinate ({x}, {y}, {z})")]
     NonFinite {
@@ -41,6 +51,7 @@ impl<E> LasError<E> {
     pub(crate) fn split(self) -> Result<LasError, E> {
         match self {
             Self::Las(e) => Ok(LasError::Las(e)),
+            Self::Records { first, last, source } => Ok(LasError::Records { first, last, source }),
             Self::NonFinite { index, x, y, z } => Ok(LasError::NonFinite { index, x, y, z }),
             Self::Sink(e) => Err(e),
             Self::Corrupt(msg) => Ok(LasError::Corrupt(msg)),
@@ -219,8 +230,15 @@ fn read_guarded<E>(path: &Path, sink: &mut dyn Sink<Error = E>) -> Result<ReadRe
     // taken column by column (no `las::Point` is made: its decoding of every field cost more
     // than the rest of this reader).
     let mut data = ::las::PointDataBuilder::new().for_header(&header).build();
+    sink.expect(total);
     while index < total {
-        if reader.fill_points(batch.min(total - index), &mut data)? == 0 {
+        let n = batch.min(total - index);
+        let read = reader.fill_points(n, &mut data).map_err(|source| LasError::Records {
+            first: index + 1,
+            last: index + n,
+            source,
+        })?;
+        if read == 0 {
             report.warnings.push(format!("the header announces {total} points, the file holds {index}"));
             break;
         }
