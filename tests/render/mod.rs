@@ -330,6 +330,62 @@ fn a_las_cloud_a_million_metres_away_renders_like_the_cloud_at_the_origin() {
 }
 
 #[test]
+fn a_z_up_scan_starts_upright_like_the_same_scan_standing_on_y() {
+    // The bunny as scanned (Y up) and turned to stand on Z, as scanners and Metashape deliver
+    // it ((x, y, z) → (x, −z, y)), each an exhibit of its own, the second saying `up = "z"`: the
+    // kiosk's start view (`kiosk snapshot` without a view) shows both the same, upright.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let text =
+        std::fs::read_to_string(common::data("scans/stanford-bunny/bun_zipper_res2.ply")).expect("bunny");
+    let (header, body) = text.split_once("end_header\n").expect("a PLY header");
+    let vertices: usize = header
+        .lines()
+        .find_map(|l| l.strip_prefix("element vertex "))
+        .and_then(|n| n.trim().parse().ok())
+        .expect("a vertex count");
+    let mut turned = format!("{header}end_header\n");
+    for (i, line) in body.lines().enumerate() {
+        let v: Vec<&str> = line.split_whitespace().collect();
+        if i < vertices {
+            let z: f64 = v[2].parse().expect("z");
+            turned += &format!("{} {} {} {}\n", v[0], -z, v[1], v[3..].join(" "));
+        } else {
+            turned += &format!("{line}\n");
+        }
+    }
+    let exhibit = |name: &str, ply: &str, up: Option<&str>| {
+        let d = dir.path().join(name);
+        std::fs::create_dir_all(&d).expect("exhibit dir");
+        std::fs::write(d.join("bunny.ply"), ply).expect("scan");
+        if let Some(up) = up {
+            std::fs::write(d.join("exhibit.toml"), format!("up = \"{up}\"\n")).expect("exhibit.toml");
+        }
+        d
+    };
+    let shot = |exhibit: &Path| {
+        let out = exhibit.join("start.png");
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_kiosk"))
+            .env("ISOKIOSK_CACHE", dir.path().join("cache"))
+            .args(["snapshot", "--size", "240x180", "--exhibit"])
+            .arg(exhibit)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .expect("run kiosk");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        image::open(&out).expect("png").to_rgba8()
+    };
+    let standing = shot(&exhibit("y-up", &text, None));
+    let lying = shot(&exhibit("z-up", &turned, Some("z")));
+    let s = ssim(&standing, &lying);
+    assert!(s > 0.99, "SSIM {s}: the Z-up scan does not start as the Y-up one");
+    // Without its exhibit.toml the Z-up scan is seen lying on its side: the check can tell.
+    let unsaid = shot(&exhibit("z-up-unsaid", &turned, None));
+    let s = ssim(&standing, &unsaid);
+    assert!(s < 0.9, "SSIM {s}: a lying bunny looks like a standing one");
+}
+
+#[test]
 fn a_close_up_at_the_minimum_distance_has_no_holes() {
     let store = &bunny().store;
     let cut = kiosk_core::Cut::leaves(store);
