@@ -12,6 +12,12 @@ pub fn data(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(rel)
 }
 
+/// The import cache of the tests' exhibits (under the target directory, not the user's cache):
+/// pass it to `open_model_in`, or as `ISOKIOSK_CACHE` to a `kiosk` process.
+pub fn cache() -> PathBuf {
+    Path::new(env!("CARGO_TARGET_TMPDIR")).join("isokiosk-cache")
+}
+
 /// Reads a scan into memory, as `kiosk import` does.
 pub fn read(rel: &str) -> Vec<InputPoint> {
     read_with(rel, &ReadOptions::default())

@@ -45,9 +45,15 @@ pub struct Project {
 pub use kiosk_content::exhibit::{ModelPose, UP_AXES};
 
 impl Project {
-    /// Opens an exhibit directory (creating an empty graph when it has none).
+    /// Opens an exhibit directory (creating an empty graph when it has none), its scan imported
+    /// into the user's cache when needed.
     pub fn open(dir: &Path) -> anyhow::Result<(Self, Vec<Problem>)> {
-        let store = kiosk_content::exhibit::open_model(dir)?;
+        Self::open_in(dir, &kiosk_content::exhibit::cache_dir())
+    }
+
+    /// [`Project::open`] with the import cache in `cache`.
+    pub fn open_in(dir: &Path, cache: &Path) -> anyhow::Result<(Self, Vec<Problem>)> {
+        let store = kiosk_content::exhibit::open_model_in(dir, cache)?;
         let graph_file = dir.join("graph.xml");
         let original = match std::fs::read_to_string(&graph_file) {
             Ok(text) => Some(text),

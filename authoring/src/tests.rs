@@ -12,6 +12,11 @@ fn exhibit() -> tempfile::TempDir {
     dir
 }
 
+/// Opens the exhibit with its import cache inside it (not the user's cache).
+fn open(dir: &Path) -> anyhow::Result<(Project, Vec<Problem>)> {
+    Project::open_in(dir, &dir.join(".import-cache"))
+}
+
 fn orbit(p: &Project, deg: f64) -> Camera {
     let c = initial_camera(&p.store, 0.8, DVec3::Y);
     let center = c.target;
@@ -26,7 +31,7 @@ fn orbit(p: &Project, deg: f64) -> Camera {
 #[test]
 fn author_a_small_graph_save_and_reload_identically() {
     let dir = exhibit();
-    let (mut p, problems) = Project::open(dir.path()).expect("open");
+    let (mut p, problems) = open(dir.path()).expect("open");
     assert!(problems.is_empty() && p.graph.nodes.is_empty());
     let (gpu, mut renderer) =
         kiosk_content::snapshot::offscreen().expect("a GPU adapter (lavapipe) is required");
@@ -62,7 +67,7 @@ fn author_a_small_graph_save_and_reload_identically() {
     assert!(p.dirty());
     p.save().expect("save");
     assert!(!p.dirty());
-    let (again, problems) = Project::open(dir.path()).expect("reopen");
+    let (again, problems) = open(dir.path()).expect("reopen");
     assert_eq!(problems.len(), 1);
     assert!(again.graph == p.graph, "the reloaded graph differs");
     // The saved file is what `kiosk replay` and the kiosk read.
@@ -76,7 +81,7 @@ fn author_a_small_graph_save_and_reload_identically() {
 #[test]
 fn undo_and_redo_walk_the_edits_and_errors_change_nothing() {
     let dir = exhibit();
-    let (mut p, _) = Project::open(dir.path()).expect("open");
+    let (mut p, _) = open(dir.path()).expect("open");
     p.capture(orbit(&p, 0.0), Some("a"), None).expect("capture");
     p.capture(orbit(&p, 30.0), Some("b"), None).expect("capture");
     p.set_dependency("a", "b", 0.8).expect("dependency");
@@ -100,14 +105,14 @@ fn undo_and_redo_walk_the_edits_and_errors_change_nothing() {
 #[test]
 fn an_interrupted_save_keeps_the_previous_file() {
     let dir = exhibit();
-    let (mut p, _) = Project::open(dir.path()).expect("open");
+    let (mut p, _) = open(dir.path()).expect("open");
     p.capture(orbit(&p, 0.0), Some("a"), None).expect("capture");
     p.save().expect("save");
     let before = std::fs::read(dir.path().join("graph.xml")).expect("saved");
     // A save that dies before the rename leaves only the temporary file behind.
     std::fs::write(dir.path().join(".graph.xml.saving"), b"<infograph version=\"1\"><node id=")
         .expect("partial");
-    let (again, problems) = Project::open(dir.path()).expect("reopen");
+    let (again, problems) = open(dir.path()).expect("reopen");
     assert!(problems.is_empty());
     assert_eq!(again.graph.nodes.len(), 1);
     assert_eq!(std::fs::read(dir.path().join("graph.xml")).expect("still there"), before);
@@ -116,7 +121,7 @@ fn an_interrupted_save_keeps_the_previous_file() {
 #[test]
 fn ids_and_languages_that_would_name_files_outside_the_exhibit_are_refused() {
     let dir = exhibit();
-    let (mut p, _) = Project::open(dir.path()).expect("open");
+    let (mut p, _) = open(dir.path()).expect("open");
     let (gpu, mut renderer) =
         kiosk_content::snapshot::offscreen().expect("a GPU adapter (lavapipe) is required");
     let e = p
@@ -138,7 +143,7 @@ fn ids_and_languages_that_would_name_files_outside_the_exhibit_are_refused() {
 #[test]
 fn an_svg_overlay_with_labels_attaches_and_a_broken_one_is_refused() {
     let dir = exhibit();
-    let (mut p, _) = Project::open(dir.path()).expect("open");
+    let (mut p, _) = open(dir.path()).expect("open");
     let id = p.capture(orbit(&p, 0.0), Some("front"), None).expect("capture");
     let svg = dir.path().join("labels.svg");
     std::fs::write(
@@ -174,7 +179,7 @@ fn saving_without_edits_keeps_the_file_byte_for_byte_even_what_could_not_be_read
 </infograph>
 "#;
     std::fs::write(dir.path().join("graph.xml"), curated).expect("write");
-    let (mut p, problems) = Project::open(dir.path()).expect("open");
+    let (mut p, problems) = open(dir.path()).expect("open");
     assert!(problems.iter().any(|p| p.node.as_deref() == Some("wide") && p.dropped), "{problems:?}");
     assert!(problems.iter().any(|p| p.node.as_deref() == Some("front") && p.msg.contains("\"high\"")));
     assert_eq!(p.graph.nodes.len(), 1);
@@ -192,16 +197,16 @@ fn saving_without_edits_keeps_the_file_byte_for_byte_even_what_could_not_be_read
 #[test]
 fn a_curator_turns_the_model_upright_and_the_kiosk_reads_it() {
     let dir = exhibit();
-    let (mut p, _) = Project::open(dir.path()).expect("open");
+    let (mut p, _) = open(dir.path()).expect("open");
     assert_eq!(p.pose.up, DVec3::Y, "no exhibit.toml: +Y");
     p.set_up(DVec3::Z).expect("set up");
     assert_eq!(kiosk_content::exhibit::model_up(dir.path()).expect("the kiosk reads it"), DVec3::Z);
-    let (again, problems) = Project::open(dir.path()).expect("reopen");
+    let (again, problems) = open(dir.path()).expect("reopen");
     assert_eq!(again.pose.up, DVec3::Z);
     assert!(problems.is_empty(), "{problems:?}");
     assert!(p.set_up(DVec3::new(1.0, 1.0, 0.0)).is_err(), "only the six axes");
     std::fs::write(dir.path().join("exhibit.toml"), "up = \"diagonal\"\n").expect("write");
-    let (broken, problems) = Project::open(dir.path()).expect("opens all the same");
+    let (broken, problems) = open(dir.path()).expect("opens all the same");
     assert_eq!(broken.pose.up, DVec3::Y);
     assert!(problems.iter().any(|p| p.msg.contains("diagonal")), "{problems:?}");
 }
@@ -209,7 +214,7 @@ fn a_curator_turns_the_model_upright_and_the_kiosk_reads_it() {
 #[test]
 fn a_curator_turns_the_model_to_its_front_and_the_kiosk_starts_there() {
     let dir = exhibit();
-    let (mut p, _) = Project::open(dir.path()).expect("open");
+    let (mut p, _) = open(dir.path()).expect("open");
     assert_eq!(p.pose.front, None, "no exhibit.toml: the default front");
     // Looking from below-left-behind: the front is that side, levelled to the up axis.
     p.set_front(DVec3::new(-1.0, -0.5, -1.0)).expect("set front");
@@ -235,7 +240,7 @@ fn a_curator_turns_the_model_to_its_front_and_the_kiosk_starts_there() {
 #[test]
 fn a_nodes_light_is_checked_normalised_and_undoable() {
     let dir = exhibit();
-    let (mut p, _) = Project::open(dir.path()).expect("open");
+    let (mut p, _) = open(dir.path()).expect("open");
     let id = p.capture(orbit(&p, 0.0), Some("front"), None).expect("capture");
     for bad in [DVec3::ZERO, DVec3::new(f64::NAN, 0.0, 1.0), DVec3::new(0.0, f64::INFINITY, 0.0)] {
         let e = p.set_light(&id, Some(bad)).expect_err("refused");
@@ -248,7 +253,7 @@ fn a_nodes_light_is_checked_normalised_and_undoable() {
     p.save().expect("save");
     let xml = std::fs::read_to_string(dir.path().join("graph.xml")).expect("saved");
     assert!(xml.contains(r#"light="-0.6 0 0.8""#), "{xml}");
-    let (again, problems) = Project::open(dir.path()).expect("reopen");
+    let (again, problems) = open(dir.path()).expect("reopen");
     assert!(problems.is_empty(), "{problems:?}");
     assert_eq!(again.graph, p.graph);
     p.set_light(&id, None).expect("remove");

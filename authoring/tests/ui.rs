@@ -14,7 +14,8 @@ fn repo() -> PathBuf {
 }
 
 fn harness(dir: &Path) -> Harness<'static, AuthorApp> {
-    let (project, problems) = Project::open(dir).expect("open the exhibit");
+    // The import cache inside the exhibit's temporary directory, not the user's.
+    let (project, problems) = Project::open_in(dir, &dir.join(".import-cache")).expect("open the exhibit");
     let gpu = kiosk_content::snapshot::offscreen().expect("a GPU adapter (lavapipe: .ci/setup installs it)");
     let app = AuthorApp::new(project, problems, Some(gpu));
     let mut h = Harness::new_ui_state(|ui, app: &mut AuthorApp| app.ui(ui), app);
@@ -163,6 +164,7 @@ fn a_curator_authors_a_story_through_the_window_and_the_kiosk_replays_it() {
     .expect("session");
     let trace = dir.path().join("trace.jsonl");
     let out = Command::new(kiosk_binary())
+        .env("ISOKIOSK_CACHE", dir.path().join(".import-cache"))
         .args(["replay", "--exhibit"])
         .arg(dir.path())
         .arg("--session")

@@ -285,6 +285,7 @@ fn replay_is_byte_identical_and_the_cli_writes_the_trace() {
     for (i, controller) in ["isocam", "isocam", "trackball", "acevit"].iter().enumerate() {
         let out = dir.path().join(format!("t{i}.jsonl"));
         let st = std::process::Command::new(exe)
+            .env("ISOKIOSK_CACHE", crate::common::cache())
             .args(["replay", "--exhibit"])
             .arg(&exhibit)
             .arg("--session")
@@ -321,6 +322,7 @@ fn replay_is_byte_identical_and_the_cli_writes_the_trace() {
     std::fs::write(&session, "{\"t\":0,\"ev\":\"down\",\"id\":1,\"x\":0.5,\"y\":0.5}\n{oops}\n")
         .expect("write");
     let st = std::process::Command::new(exe)
+        .env("ISOKIOSK_CACHE", crate::common::cache())
         .args(["replay", "--exhibit"])
         .arg(&exhibit)
         .arg("--session")

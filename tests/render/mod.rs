@@ -509,6 +509,7 @@ fn an_image_larger_than_the_device_allows_is_a_clear_error() {
     let out = dir.path().join("big.png");
     let exhibit = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("content/demosthenes");
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_kiosk"))
+        .env("ISOKIOSK_CACHE", common::cache())
         .args(["snapshot", "--size", "8200x8200", "-o"])
         .arg(&out)
         .arg("--exhibit")

@@ -188,6 +188,7 @@ fn kiosk_replay_runs_the_story_of_an_exhibit_directory() {
     std::fs::write(&session, script.session().to_jsonl()).expect("session");
     let trace = dir.path().join("t.jsonl");
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_kiosk"))
+        .env("ISOKIOSK_CACHE", crate::common::cache())
         .args(["replay", "--exhibit"])
         .arg(dir.path())
         .arg("--session")
@@ -232,7 +233,7 @@ fn the_belweder_exhibit_is_a_coloured_scan_of_a_million_samples_with_its_story()
     }
     // The glTF is imported at texel density: over a million samples, each with its texture's
     // colour (alpha 255), and the colours are those of a wooden cabinet, not a grey default.
-    let store = kiosk_content::exhibit::open_model(&dir).expect("model");
+    let store = kiosk_content::exhibit::open_model_in(&dir, &crate::common::cache()).expect("model");
     let h = store.header();
     assert!(h.leaf_point_count >= 1_000_000, "{} samples", h.leaf_point_count);
     let (mut coloured, mut warm, mut leaves) = (0u64, 0u64, 0u64);
@@ -282,7 +283,7 @@ fn demo_exhibit_loads_and_plays(name: &str) {
     }
     assert!(dir.join("CREDITS.md").is_file(), "{name}: no CREDITS.md");
     // The story plays: a visitor who waits is shown the introduction first.
-    let store = kiosk_content::exhibit::open_model(&dir).expect("model");
+    let store = kiosk_content::exhibit::open_model_in(&dir, &crate::common::cache()).expect("model");
     let t = replay::run_story(
         &store,
         &Script::new().wait(40.0).cancel(99).session(),
@@ -309,6 +310,7 @@ fn a_trace_never_replaces_its_session_and_a_recording_is_not_overwritten() {
         std::process::Command::new(env!("CARGO_BIN_EXE_kiosk"))
             .args(args)
             .env("RUST_BACKTRACE", "0")
+            .env("ISOKIOSK_CACHE", crate::common::cache())
             .output()
             .expect("run kiosk")
     };

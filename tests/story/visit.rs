@@ -19,7 +19,7 @@ fn demo() -> Demo {
         .iter()
         .map(|name| {
             let dir = root.join(name);
-            let store = kiosk_content::exhibit::open_model(&dir).expect("model");
+            let store = kiosk_content::exhibit::open_model_in(&dir, &crate::common::cache()).expect("model");
             let (graph, problems) =
                 kiosk_content::exhibit::open_graph(&dir).expect("graph").expect("graph.xml");
             assert!(problems.is_empty(), "{problems:?}");

@@ -64,6 +64,7 @@ fn kiosk_with_alsa(home: &std::path::Path, args: &[&std::ffi::OsStr]) -> std::pr
     std::process::Command::new(env!("CARGO_BIN_EXE_kiosk"))
         .args(args)
         .env("HOME", home)
+        .env("ISOKIOSK_CACHE", crate::common::cache())
         .env_remove("XDG_CONFIG_HOME")
         .env_remove("ALSA_CONFIG_PATH")
         .output()

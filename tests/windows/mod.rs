@@ -64,6 +64,7 @@ fn run_in(content: &Path, script: &Script, shots: &[f64], config: &str, speed: f
         std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700)).expect("chmod");
     }
     let out = Command::new("xvfb-run")
+        .env("ISOKIOSK_CACHE", crate::common::cache())
         .args(["-a", "-s", "-screen 0 2200x800x24 -nolisten tcp"])
         .arg(env!("CARGO_BIN_EXE_kiosk"))
         .arg("--config")
@@ -391,6 +392,7 @@ fn snapshot_renders_a_node_in_its_stored_light() {
     let shot = |name: &str| -> RgbaImage {
         let out = dir.path().join(name);
         let o = Command::new(env!("CARGO_BIN_EXE_kiosk"))
+            .env("ISOKIOSK_CACHE", crate::common::cache())
             .args(["snapshot", "--node", "face", "--size", "320x180", "--exhibit"])
             .arg(&exhibit)
             .arg("-o")

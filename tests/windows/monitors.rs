@@ -176,6 +176,7 @@ impl Xorg {
         let at: Vec<String> = shots.iter().map(|t| format!("{t}")).collect();
         let kiosk = self
             .command(env!("CARGO_BIN_EXE_kiosk"))
+            .env("ISOKIOSK_CACHE", crate::common::cache())
             .arg("--config")
             .arg(&cfg)
             .arg("--silent")
