@@ -3,6 +3,7 @@
 //! `-- --survey-only [--points N]`: the survey formats' readers alone, beside their decoders' bare
 //! loops, on one generated cloud written as LAS, LAZ, E57 and PLY (left in `target/bench/` for
 //! timing whole imports of each with `kiosk import`).
+//! `-- --texture-8k`: an 8192² texture on a 200 k-triangle mesh imported at one sample per texel.
 //! `-- --queries-only A.kstore B.kstore …`: tables 2 and 3 only, on existing stores side by side.
 //! `-- --reference`: only the machine's reference figure (inflating the scan), printed with the
 //! tables too: the same fixed work in every run, to tell the machine's slow stretches from its fast.
@@ -64,6 +65,9 @@ fn main() -> anyhow::Result<()> {
     let quick = args.iter().any(|a| a == "--quick");
     if args.iter().any(|a| a == "--textured-only") {
         return textured_reader();
+    }
+    if args.iter().any(|a| a == "--texture-8k") {
+        return texture_8k();
     }
     if args.iter().any(|a| a == "--survey-only") {
         let n = args
@@ -198,6 +202,72 @@ fn textured_reader() -> anyhow::Result<()> {
         let s = median(times);
         println!("| {density} | {n} | {s:.3} | {:.1} |", n as f64 / s / 1e6);
     }
+    Ok(())
+}
+
+/// An 8 k texture on a 200 k-triangle mesh: a 317 × 317 grid of vertices (199 712 triangles)
+/// over 1 m², gently waved, its texture coordinates spanning an 8192² image of 4-texel checks
+/// crossed by one-texel lines every 64 texels; written as OBJ + MTL + PNG (before the clock, kept
+/// in `target/bench/texture-8k/`) and imported in a child process at the default density, one
+/// sample per texel. The store is left there to be looked at (`kiosk snapshot`).
+fn texture_8k() -> anyhow::Result<()> {
+    use std::io::Write;
+    const SIDE: u32 = 8192;
+    const GRID: usize = 317;
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench/texture-8k");
+    std::fs::create_dir_all(&dir)?;
+    let png = dir.join("checks.png");
+    if !png.exists() {
+        image::RgbImage::from_fn(SIDE, SIDE, |x, y| {
+            if x % 64 == 0 || y % 64 == 0 {
+                image::Rgb([20, 20, 60])
+            } else if (x / 4 + y / 4) % 2 == 0 {
+                image::Rgb([230, 200, 120])
+            } else {
+                image::Rgb([150, 60, 40])
+            }
+        })
+        .save(&png)?;
+    }
+    std::fs::write(dir.join("grid.mtl"), "newmtl checks\nKd 1 1 1\nmap_Kd checks.png\n")?;
+    let obj = dir.join("grid.obj");
+    let mut w = std::io::BufWriter::new(std::fs::File::create(&obj)?);
+    writeln!(w, "mtllib grid.mtl\nusemtl checks")?;
+    let step = 1.0 / (GRID - 1) as f64;
+    for j in 0..GRID {
+        for i in 0..GRID {
+            let (x, y) = (i as f64 * step, j as f64 * step);
+            writeln!(w, "v {x:.6} {y:.6} {:.6}", 0.02 * (6.0 * x).sin() * (4.0 * y).cos())?;
+        }
+    }
+    for j in 0..GRID {
+        for i in 0..GRID {
+            // Texture coordinates with v up, as OBJ has them.
+            writeln!(w, "vt {:.6} {:.6}", i as f64 * step, j as f64 * step)?;
+        }
+    }
+    let at = |i: usize, j: usize| j * GRID + i + 1;
+    for j in 0..GRID - 1 {
+        for i in 0..GRID - 1 {
+            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            writeln!(w, "f {a}/{a} {b}/{b} {c}/{c}\nf {a}/{a} {c}/{c} {d}/{d}")?;
+        }
+    }
+    w.into_inner().map_err(std::io::IntoInnerError::into_error)?.sync_all()?;
+    println!(
+        "\n## An 8192² texture on {} triangles, one sample per texel (`kiosk import` in a child process)",
+        2 * (GRID - 1) * (GRID - 1)
+    );
+    println!(
+        "| input | samples | seconds | samples/s | peak RSS MB | nodes | levels | store MB | s: read · distribute · merge · order · estimate · nodes · finish |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    child(
+        &format!("scan:{}", obj.display()),
+        BuildParams::default().node_points,
+        &dir.join("grid.kstore"),
+        None,
+    )?;
     Ok(())
 }
 
