@@ -18,6 +18,23 @@ pub fn cache() -> PathBuf {
     Path::new(env!("CARGO_TARGET_TMPDIR")).join("isokiosk-cache")
 }
 
+/// Runs `kiosk snapshot --exhibit EXHIBIT -o OUT ARGS…` with the import cache in `cache` and
+/// reads the image it wrote.
+pub fn snapshot(exhibit: &Path, out: &Path, cache: &Path, args: &[&str]) -> image::RgbaImage {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_kiosk"))
+        .env("ISOKIOSK_CACHE", cache)
+        .arg("snapshot")
+        .args(args)
+        .arg("--exhibit")
+        .arg(exhibit)
+        .arg("-o")
+        .arg(out)
+        .output()
+        .expect("run kiosk");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    image::open(out).expect("png").to_rgba8()
+}
+
 /// Reads a scan into memory, as `kiosk import` does.
 pub fn read(rel: &str) -> Vec<InputPoint> {
     read_with(rel, &ReadOptions::default())

@@ -363,17 +363,12 @@ fn a_z_up_scan_starts_upright_like_the_same_scan_standing_on_y() {
         d
     };
     let shot = |exhibit: &Path| {
-        let out = exhibit.join("start.png");
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_kiosk"))
-            .env("ISOKIOSK_CACHE", dir.path().join("cache"))
-            .args(["snapshot", "--size", "240x180", "--exhibit"])
-            .arg(exhibit)
-            .arg("-o")
-            .arg(&out)
-            .output()
-            .expect("run kiosk");
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        image::open(&out).expect("png").to_rgba8()
+        common::snapshot(
+            exhibit,
+            &exhibit.join("start.png"),
+            &dir.path().join("cache"),
+            &["--size", "240x180"],
+        )
     };
     let standing = shot(&exhibit("y-up", &text, None));
     let lying = shot(&exhibit("z-up", &turned, Some("z")));

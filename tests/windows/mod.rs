@@ -391,16 +391,12 @@ fn snapshot_renders_a_node_in_its_stored_light() {
     copy_dir(&content().join("demosthenes"), &exhibit);
     let shot = |name: &str| -> RgbaImage {
         let out = dir.path().join(name);
-        let o = Command::new(env!("CARGO_BIN_EXE_kiosk"))
-            .env("ISOKIOSK_CACHE", crate::common::cache())
-            .args(["snapshot", "--node", "face", "--size", "320x180", "--exhibit"])
-            .arg(&exhibit)
-            .arg("-o")
-            .arg(&out)
-            .output()
-            .expect("run kiosk");
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        image::open(&out).expect("png").to_rgba8()
+        crate::common::snapshot(
+            &exhibit,
+            &out,
+            &crate::common::cache(),
+            &["--node", "face", "--size", "320x180"],
+        )
     };
     let plain = shot("plain.png");
     let graph = exhibit.join("graph.xml");
