@@ -1,7 +1,8 @@
 //! The colours of textured and coloured meshes, feature by feature: glTF's `COLOR_0`,
 //! `baseColorFactor`, `KHR_texture_transform` and sampler wrap modes, PLY's `comment TextureFile`
-//! with per-vertex texture coordinates, OBJ faces switching materials with `usemtl` (a texture and
-//! a plain `Kd`, two atlases). Every file is written by the test into a temporary directory.
+//! with per-vertex texture coordinates and several atlases picked by `texnumber`, OBJ faces
+//! switching materials with `usemtl` (a texture and a plain `Kd`, two atlases). Every file is
+//! written by the test into a temporary directory.
 
 use glam::DVec3;
 use kiosk_import::source::read_all;
@@ -443,4 +444,42 @@ fn two_obj_atlases_each_colour_their_own_faces() {
         let seen = assert_blocks(&what, &on, &atlases[k], |p| [p.x - lo, 1.0 - p.y], |c| c);
         assert_eq!(seen, block_set(0..4, 0..4), "{what}");
     }
+}
+
+#[test]
+fn a_ply_with_several_atlases_colours_each_face_from_its_texnumber() {
+    // Agisoft's layout: one `TextureFile` per atlas, a `texnumber` per face. Two unit squares
+    // side by side, the left one's faces on the red atlas, the right one's on the blue.
+    let dir = tempfile::tempdir().expect("temp dir");
+    for (name, rgb) in [("red.png", [200, 30, 30]), ("blue.png", [30, 30, 200])] {
+        image::RgbaImage::from_pixel(16, 16, image::Rgba([rgb[0], rgb[1], rgb[2], 255]))
+            .save(dir.path().join(name))
+            .expect("png");
+    }
+    let ply = |third: u32| {
+        format!(
+            "ply\nformat ascii 1.0\ncomment TextureFile red.png\ncomment TextureFile blue.png\n\
+             element vertex 6\nproperty float x\nproperty float y\nproperty float z\n\
+             element face 4\nproperty list uchar int vertex_indices\nproperty list uchar float texcoord\n\
+             property int texnumber\nend_header\n\
+             0 0 0\n1 0 0\n2 0 0\n0 1 0\n1 1 0\n2 1 0\n\
+             3 0 1 4 6 0 0 1 0 1 1 0\n3 0 4 3 6 0 0 1 1 0 1 0\n\
+             3 1 2 5 6 0 0 1 0 1 1 {third}\n3 1 5 4 6 0 0 1 1 0 1 1\n"
+        )
+    };
+    let path = dir.path().join("atlases.ply");
+    std::fs::write(&path, ply(1)).expect("write");
+    let (points, report) = read_all(&path, &ReadOptions::default()).expect("two atlases");
+    assert!(!report.warnings.iter().any(|w| w.contains("serves every face")), "{:?}", report.warnings);
+    let (left, right): (Vec<&InputPoint>, Vec<&InputPoint>) = points.iter().partition(|p| p.pos.x < 1.0);
+    assert!(left.len() > 100 && right.len() > 100, "{} and {} samples", left.len(), right.len());
+    for (side, want) in [(&left, [200, 30, 30, 255]), (&right, [30, 30, 200, 255])] {
+        for p in side.iter().filter(|p| (p.pos.x - 1.0).abs() > 0.05) {
+            assert!(near(p.color, want), "{:?} at {:?}, want {want:?}", p.color, p.pos);
+        }
+    }
+    // A face naming an atlas the file does not have is refused, with its row.
+    std::fs::write(&path, ply(2)).expect("write");
+    let e = read_all(&path, &ReadOptions::default()).expect_err("texnumber 2").to_string();
+    assert!(e.contains("face") && e.contains("row 3") && e.contains("texnumber 2"), "{e}");
 }

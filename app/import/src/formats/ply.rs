@@ -4,8 +4,9 @@
 //!
 //! A textured PLY (MeshLab, Agisoft: `comment TextureFile NAME`, the image beside the file,
 //! with per-face `texcoord` lists or per-vertex `s t`, `u v`, `texture_u texture_v`) is sampled
-//! on its surface at texel density like a textured OBJ ([`crate::formats::surface`]); its first
-//! texture serves every face (a `texnumber` per face is not read) and alone gives the colour
+//! on its surface at texel density like a textured OBJ ([`crate::formats::surface`]). A face's
+//! `texnumber` (Agisoft's several atlases) picks its texture among the `TextureFile`s, in their
+//! order; without it the first texture serves every face. The texture alone gives the colour
 //! (MeshLab writes its default grey as the vertices' colour of a textured mesh).
 
 use super::mesh::{Buffered, dropped_vertex, polygon_triangles};
@@ -101,9 +102,24 @@ pub fn read_ply_in<E>(
         let f = &header.elements[fi];
         f.prop("texcoord").filter(|&i| matches!(f.props[i].kind, PropKind::List { .. }))
     });
+    // A face's texture among the files named, when there are several.
+    let face_texnumber = face.filter(|_| header.texture_files.len() > 1).and_then(|(fi, _)| {
+        let f = &header.elements[fi];
+        f.prop("texnumber").filter(|&i| matches!(f.props[i].kind, PropKind::Scalar(_)))
+    });
+    let named = if face_texnumber.is_some() {
+        &header.texture_files[..]
+    } else {
+        &header.texture_files[..1.min(header.texture_files.len())]
+    };
     let texture = match (header.texture_files.first(), vertex_uv.is_some() || face_uv.is_some()) {
         (Some(name), true) if use_faces => match dir {
-            Some(dir) => Some(Arc::new(Texture::load(&dir.join(name))?)),
+            Some(dir) => Some(
+                named
+                    .iter()
+                    .map(|n| Texture::load(&dir.join(n)).map(Arc::new))
+                    .collect::<Result<Vec<_>, _>>()?,
+            ),
             None => {
                 report
                     .warnings
@@ -119,7 +135,7 @@ pub fn read_ply_in<E>(
         }
         (None, _) => None,
     };
-    if header.texture_files.len() > 1 {
+    if header.texture_files.len() > 1 && face_texnumber.is_none() {
         report.warnings.push(format!(
             "{} texture files: the first ('{}') serves every face",
             header.texture_files.len(),
@@ -158,8 +174,9 @@ pub fn read_ply_in<E>(
         vertices,
         vertex_uv: vertex_uv.filter(|_| texture.is_some()),
         face_uv: face_uv.filter(|_| texture.is_some() && vertex_uv.is_none()),
+        face_texnumber: face_texnumber.filter(|_| texture.is_some()).map(|i| (i, named.len())),
     };
-    let (mut uvs, mut tri_uvs) = (Vec::new(), Vec::new());
+    let (mut uvs, mut tri_uvs, mut tri_tex) = (Vec::new(), Vec::new(), Vec::new());
     let mut dropped = 0u64;
     let mut sink_err = None;
     let body_warnings = ply::read_body_converted(r, &header, &conv, |out: &mut PlyOut| {
@@ -170,6 +187,7 @@ pub fn read_ply_in<E>(
             buffered.points.append(&mut out.points);
             uvs.append(&mut out.uvs);
             tri_uvs.append(&mut out.tri_uvs);
+            tri_tex.append(&mut out.tri_tex);
             if buffered.streamed {
                 buffered.accumulate(&out.tris);
             } else {
@@ -197,7 +215,8 @@ pub fn read_ply_in<E>(
         report.warnings.push(format!("{dropped} vertex row(s) with non-finite coordinates dropped"));
     }
     if let Some(texture) = texture {
-        return sample_textured(buffered, &uvs, &tri_uvs, texture, opts, report, sink);
+        let uv = TriangleUvs { uvs: &uvs, tri_uvs: &tri_uvs, tri_tex: &tri_tex };
+        return sample_textured(buffered, &uv, texture, opts, report, sink);
     }
     if use_faces {
         buffered.finish(&mut report, sink)?;
@@ -205,14 +224,22 @@ pub fn read_ply_in<E>(
     Ok(report)
 }
 
-/// A textured PLY sampled on its surface: every triangle with the texture, its corners' texture
-/// coordinates per vertex (`uvs`) or per triangle (`tri_uvs`); vertices in no triangle are
+/// Where the triangles of a textured PLY find their texels: their corners' texture coordinates
+/// per vertex (`uvs`) or per triangle (`tri_uvs`), and each triangle's texture (`tri_tex`, an
+/// index into the textures; empty: the first serves every triangle).
+struct TriangleUvs<'a> {
+    uvs: &'a [[f32; 2]],
+    tri_uvs: &'a [[[f32; 2]; 3]],
+    tri_tex: &'a [u32],
+}
+
+/// A textured PLY sampled on its surface: every triangle with its texture (`textures`, in the
+/// order of the file's `TextureFile`s) at its texture coordinates; vertices in no triangle are
 /// passed on as they are.
 fn sample_textured<E>(
     buffered: Buffered,
-    uvs: &[[f32; 2]],
-    tri_uvs: &[[[f32; 2]; 3]],
-    texture: Arc<Texture>,
+    uv: &TriangleUvs<'_>,
+    textures: Vec<Arc<Texture>>,
     opts: &ReadOptions,
     mut report: ReadReport,
     sink: &mut dyn Sink<Error = E>,
@@ -226,11 +253,11 @@ fn sample_textured<E>(
         .iter()
         .enumerate()
         .map(|(k, &v)| {
-            let uv = match tri_uvs.get(k) {
+            let corners = match uv.tri_uvs.get(k) {
                 Some(corners) => corners.map(flip),
-                None => v.map(|i| flip(uvs.get(i as usize).copied().unwrap_or([0.0; 2]))),
+                None => v.map(|i| flip(uv.uvs.get(i as usize).copied().unwrap_or([0.0; 2]))),
             };
-            Tri { v, uv, material: 0 }
+            Tri { v, uv: corners, material: uv.tri_tex.get(k).copied().unwrap_or(0) }
         })
         .collect();
     super::surface::pass_lone_vertices(&points, &tris, &mut report, sink)?;
@@ -241,7 +268,10 @@ fn sample_textured<E>(
         // colour of a textured mesh.
         colors: Vec::new(),
         tris,
-        materials: vec![Material { factor: [1.0; 4], texture: Some(texture), colored: true }],
+        materials: textures
+            .into_iter()
+            .map(|t| Material { factor: [1.0; 4], texture: Some(t), colored: true })
+            .collect(),
     };
     let params = opts.sample_params(points.iter().map(|p| p.pos));
     surface.sample(&params, &mut report, sink)?;
@@ -271,6 +301,8 @@ pub(crate) struct PlyRows {
     /// file only).
     vertex_uv: Option<[usize; 2]>,
     face_uv: Option<usize>,
+    /// The face's `texnumber` and the number of textures it picks among.
+    face_texnumber: Option<(usize, usize)>,
 }
 
 /// The rows of a run converted: its vertices (a dropped one as a placeholder where the faces
@@ -288,6 +320,8 @@ pub(crate) struct PlyOut {
     /// Texture coordinates of the vertices, or of the triangles' corners (a textured file).
     uvs: Vec<[f32; 2]>,
     tri_uvs: Vec<[[f32; 2]; 3]>,
+    /// Each triangle's texture (a file with several, per face `texnumber`).
+    tri_tex: Vec<u32>,
 }
 
 impl ply::Convert for PlyRows {
@@ -298,6 +332,7 @@ impl ply::Convert for PlyRows {
         out.tris.clear();
         out.uvs.clear();
         out.tri_uvs.clear();
+        out.tri_tex.clear();
         (out.rows, out.dropped, out.faces, out.unchecked) = (0, 0, 0, false);
     }
 
@@ -370,6 +405,22 @@ impl ply::Convert for PlyRows {
                 }
                 let at = |k: usize| [uv[2 * k] as f32, uv[2 * k + 1] as f32];
                 out.tri_uvs.extend((1..corners - 1).map(|k| [at(0), at(k), at(k + 1)]));
+            }
+            if let Some((ni, textures)) = self.face_texnumber {
+                let n = row.values[ni];
+                if !(n >= 0.0 && n < textures as f64) || n.fract() != 0.0 {
+                    return Err(PlyError::Row {
+                        element: "face".into(),
+                        row: ri + 1,
+                        line: None,
+                        msg: format!(
+                            "texnumber {n}: the file names {textures} texture files (0 to {})",
+                            textures - 1
+                        ),
+                    });
+                }
+                let corners = row.lists[li].len();
+                out.tri_tex.extend(std::iter::repeat_n(n as u32, corners - 2));
             }
             out.unchecked |= self.vertices.is_none();
             out.faces += 1;
