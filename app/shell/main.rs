@@ -300,13 +300,13 @@ fn main() -> anyhow::Result<()> {
         }
         Command::Snapshot { exhibit, view, node, size, output, splats, edl, tolerance } => {
             let store = kiosk_content::exhibit::open_model(&exhibit)?;
-            let size = kiosk_content::snapshot::parse_size(&size)?;
+            let size = parse_size(&size)?;
             // The view and its light: a node's stored light, else the light a visit starts with.
             let pose = kiosk_content::exhibit::model_pose(&exhibit)?;
             let start = kiosk_core::replay::start_camera(&store, 0.8, pose.up, pose.front);
             let start_light = kiosk_content::snapshot::start_light(&start);
             let (camera, light) = match (view, node) {
-                (Some(v), _) => (kiosk_content::snapshot::parse_view(&v)?, start_light),
+                (Some(v), _) => (parse_view(&v)?, start_light),
                 (None, Some(id)) => {
                     let (graph, _) = kiosk_content::exhibit::open_graph(&exhibit)?
                         .with_context(|| format!("{}: no graph.xml for --node", exhibit.display()))?;
@@ -442,5 +442,61 @@ fn texel_density(s: &str) -> Result<f32, String> {
         Ok(v)
     } else {
         Err(format!("{v}: the texel density is more than 0 and at most 64"))
+    }
+}
+
+/// Parses `eye_x,eye_y,eye_z,target_x,target_y,target_z,up_x,up_y,up_z,fov_degrees`.
+fn parse_view(s: &str) -> anyhow::Result<kiosk_core::camera::Camera> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>().with_context(|| format!("'{x}' is not a number")))
+        .collect::<anyhow::Result<_>>()?;
+    anyhow::ensure!(
+        v.len() == 10,
+        "--view needs 10 numbers: eye(3), target(3), up(3), fov in degrees; got {}",
+        v.len()
+    );
+    anyhow::ensure!(v.iter().all(|x| x.is_finite()), "--view numbers must be finite");
+    let eye = glam::DVec3::new(v[0], v[1], v[2]);
+    let target = glam::DVec3::new(v[3], v[4], v[5]);
+    anyhow::ensure!(eye != target, "--view: eye and target coincide");
+    anyhow::ensure!(v[9] > 0.0 && v[9] < 180.0, "--view: field of view must be in (0, 180) degrees");
+    let mut c = kiosk_core::camera::Camera {
+        eye,
+        target,
+        up: glam::DVec3::new(v[6], v[7], v[8]),
+        fov_y: v[9].to_radians(),
+    };
+    c.up = kiosk_core::camera::orthonormal_up(c.forward(), c.up, glam::DVec3::Y);
+    Ok(c)
+}
+
+/// Parses `WxH`.
+fn parse_size(s: &str) -> anyhow::Result<(u32, u32)> {
+    let (w, h) = s.split_once(['x', 'X']).with_context(|| format!("size '{s}' is not WxH"))?;
+    let (w, h): (u32, u32) = (w.trim().parse()?, h.trim().parse()?);
+    anyhow::ensure!((1..=16384).contains(&w) && (1..=16384).contains(&h), "size {w}x{h} outside 1…16384");
+    Ok((w, h))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_view_and_a_size_are_parsed_or_refused_by_their_flag() {
+        let c = parse_view("0,0,2, 0,0,0, 0,1,0, 60").expect("a view");
+        assert!((c.fov_y - 60f64.to_radians()).abs() < 1e-12 && c.up.y > 0.99);
+        for (bad, says) in [
+            ("0,0,2,0,0,0,0,1,0", "--view needs 10 numbers"),
+            ("0,0,0,0,0,0,0,1,0,60", "coincide"),
+            ("0,0,2,0,0,0,0,1,0,180", "field of view"),
+            ("0,0,x,0,0,0,0,1,0,60", "'x' is not a number"),
+        ] {
+            let e = format!("{:#}", parse_view(bad).expect_err(bad));
+            assert!(e.contains(says), "{bad}: {e}");
+        }
+        assert_eq!(parse_size("1280x720").expect("a size"), (1280, 720));
+        assert!(parse_size("0x10").is_err() && parse_size("12").is_err());
     }
 }
