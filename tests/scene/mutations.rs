@@ -140,7 +140,7 @@ fn broken_survey_files_never_panic_and_errors_say_something() {
     // LAZ too: panics that its decoder (the laz crate) raises on corrupted points are turned into
     // errors (formats::guarded), and the chunk counts it would reserve memory for are checked
     // against the file first (see the test below).
-    // The GLB, the glTF and the textured PLY at 1/16 sample per texel, and a sample limit: a
+    // The GLB, the glTF, the textured PLY and OBJ at 1/16 sample per texel, and a sample limit: a
     // mutated texture coordinate may ask for billions of samples, which is an error to see, not
     // a long run.
     let opts = ReadOptions { texel_density: 1.0 / 16.0, max_samples: 1 << 21, ..opts };
@@ -152,9 +152,23 @@ fn broken_survey_files_never_panic_and_errors_say_something() {
         "formats/box-textured/BoxTextured.glb",
         "formats/box-textured/BoxTexturedQuantized.gltf",
         "ply-corpus/ok/trimesh/fuze.ply",
+        "formats/fuze/fuze.obj",
+        "formats/fuze/fuze.obj.mtl",
     ] {
         let good = std::fs::read(data(seed)).expect("seed file");
         let path = dir.path().join(seed.rsplit('/').next().expect("name"));
+        // An OBJ with its material library and texture: the OBJ mutated with the library
+        // intact, or the library mutated and the OBJ read (the textured-OBJ path either way).
+        let read_path = if seed.starts_with("formats/fuze/") {
+            for f in ["fuze.obj", "fuze.obj.mtl", "fuze uv.jpg"] {
+                if !seed.ends_with(f) {
+                    std::fs::copy(data(&format!("formats/fuze/{f}")), dir.path().join(f)).expect("copy");
+                }
+            }
+            dir.path().join("fuze.obj")
+        } else {
+            path.clone()
+        };
         if seed.ends_with(".gltf") {
             // Its buffer and texture beside it, unchanged.
             for f in ["BoxTexturedQuantized.bin", "Cesium Logo Flat.png"] {
@@ -174,7 +188,7 @@ fn broken_survey_files_never_panic_and_errors_say_something() {
             std::fs::write(&path, &b).expect("write");
             let read = std::panic::catch_unwind(|| {
                 let mut pts = 0u64;
-                let got = source::read_file(&path, &opts, &mut |_| {
+                let got = source::read_file(&read_path, &opts, &mut |_| {
                     pts += 1;
                     Ok(())
                 });
