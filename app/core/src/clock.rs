@@ -1,8 +1,10 @@
-//! The fixed clock every loop of IsoKiosk steps the core by: the kiosk's windows, `kiosk replay`
-//! and the core's own session runner ([`crate::kiosk::run_session`]) all take step k at time
-//! k / fps (computed, never accumulated, so step k's time is the same in a minute-long test and a
-//! month-long run) and hand the core each recorded touch at the first step at or after its time.
-//! One clock and one feed, so that a session gives the same trace, byte for byte, from all three.
+//! The fixed-clock loop every driver of IsoKiosk steps the core by: the kiosk's windows, `kiosk
+//! replay` and the core's own session runner ([`crate::kiosk::run_session`]) all step through one
+//! [`Stepper`]. It takes step k at time k / fps (computed, never accumulated, so step k's time is
+//! the same in a minute-long test and a month-long run) and, before each step, hands the core
+//! every touch of its [`TouchSource`] due at it (a recorded touch at the first step at or after its
+//! time). One loop, so that a session gives the same trace, byte for byte, from all three; the
+//! drivers differ only in what they do with a step's frame.
 
 use crate::gesture::TouchEvent;
 use crate::session::Session;
@@ -45,6 +47,11 @@ impl FixedClock {
         (secs * self.fps).ceil() as u64 + 1
     }
 
+    /// The time of the last step of a run covering `secs` seconds from time 0.
+    pub fn end_of(&self, secs: f64) -> f64 {
+        self.time(self.steps_for(secs) - 1)
+    }
+
     /// Takes the next step if it is due by `now` (its time ≤ `now`): returns its time.
     pub fn next_due(&mut self, now: f64) -> Option<f64> {
         let t = self.time(self.steps);
@@ -52,6 +59,72 @@ impl FixedClock {
             self.steps += 1;
             t
         })
+    }
+}
+
+/// What the loop hands touches to: the explorer and the kiosk.
+pub trait Touchable {
+    /// Takes one touch (its time is at or before the coming step's).
+    fn touch(&mut self, e: &TouchEvent);
+}
+
+/// Where a loop's touches come from: a recorded session ([`Playing`]), or the kiosk's live windows
+/// with or without one.
+pub trait TouchSource {
+    /// Hands `to` every touch due at step time `t`, in order, once.
+    fn due(&mut self, t: f64, to: &mut dyn FnMut(&TouchEvent));
+}
+
+/// The fixed-clock loop: a [`FixedClock`] and the [`TouchSource`] its steps take touches from.
+/// Each driver writes `while let Some(t) = stepper.next(now, &mut core) { core.step(t) … }`.
+#[derive(Debug)]
+pub struct Stepper<S> {
+    clock: FixedClock,
+    source: S,
+}
+
+impl<S: TouchSource> Stepper<S> {
+    /// A loop stepping `fps` times a second with touches from `source`, before its first step.
+    pub fn new(fps: f64, source: S) -> Self {
+        Self { clock: FixedClock::new(fps), source }
+    }
+
+    /// The loop's clock.
+    pub fn clock(&self) -> &FixedClock {
+        &self.clock
+    }
+
+    /// The touch source (the live windows queue their touches in it).
+    pub fn source(&mut self) -> &mut S {
+        &mut self.source
+    }
+
+    /// Takes the next step if it is due by `now`: hands `core` the touches due at it, then returns
+    /// its time for the caller to step `core` to.
+    pub fn next(&mut self, now: f64, core: &mut impl Touchable) -> Option<f64> {
+        let t = self.clock.next_due(now)?;
+        self.source.due(t, &mut |e| core.touch(e));
+        Some(t)
+    }
+}
+
+/// A recorded session being played by a [`SessionFeed`]: the touch source of replays.
+#[derive(Debug)]
+pub struct Playing<'s> {
+    session: &'s Session,
+    feed: SessionFeed,
+}
+
+impl<'s> Playing<'s> {
+    /// Plays `session` from time 0 with `feed`.
+    pub fn new(session: &'s Session, feed: SessionFeed) -> Self {
+        Self { session, feed }
+    }
+}
+
+impl TouchSource for Playing<'_> {
+    fn due(&mut self, t: f64, to: &mut dyn FnMut(&TouchEvent)) {
+        self.feed.due(self.session, t, to);
     }
 }
 
@@ -127,13 +200,28 @@ mod tests {
         let text = "{\"t\": 0.0, \"ev\": \"down\", \"id\": 1, \"x\": 0.5, \"y\": 0.5}\n\
                     {\"t\": 0.05, \"ev\": \"up\", \"id\": 1, \"x\": 0.5, \"y\": 0.5}\n";
         let session = Session::parse(text).expect("session");
-        let run = |mut feed: SessionFeed, secs: f64| {
-            let mut clock = FixedClock::new(60.0);
-            let mut got = Vec::new();
-            while let Some(t) = clock.next_due(secs) {
-                feed.due(&session, t, &mut |e| got.push((t, e.t)));
+        /// Records each touch with the time of the step it came before.
+        struct Got(Vec<(f64, f64)>, f64);
+        impl Touchable for Got {
+            fn touch(&mut self, e: &TouchEvent) {
+                self.0.push((self.1, e.t));
             }
-            got
+        }
+        let run = |feed: SessionFeed, secs: f64| {
+            let mut stepper = Stepper::new(60.0, Playing::new(&session, feed));
+            let mut got = Got(Vec::new(), 0.0);
+            let mut steps = 0;
+            // The step's time is known only after its touches: each is checked against the
+            // clock's time for the step being taken.
+            while let Some(t) = {
+                got.1 = stepper.clock().time(stepper.clock().steps());
+                stepper.next(secs, &mut got)
+            } {
+                assert_eq!(t, got.1);
+                steps += 1;
+            }
+            assert_eq!(steps, stepper.clock().steps_for(secs), "every step up to {secs} s is taken");
+            got.0
         };
         // The touch at 0.05 s comes at step 3 (0.05 s) within the slack, not at step 4.
         assert_eq!(run(SessionFeed::once(), 10.0), vec![(0.0, 0.0), (3.0 / 60.0, 0.05)]);

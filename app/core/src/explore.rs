@@ -181,6 +181,12 @@ pub struct Explorer<'a, B: AsRef<[u8]>> {
     pub autopilot: bool,
 }
 
+impl<B: AsRef<[u8]>> crate::clock::Touchable for Explorer<'_, B> {
+    fn touch(&mut self, e: &TouchEvent) {
+        Explorer::touch(self, e);
+    }
+}
+
 impl<'a, B: AsRef<[u8]>> Explorer<'a, B> {
     /// Starts at the model's framing view, exploring `store` (with the recommender and the
     /// radial menu when `graph` is given) for the explorer's lifetime; `now` is the clock of the

@@ -23,7 +23,7 @@
 //! Each model's long-run statistics live in the kiosk across visits ([`Kiosk::stats`]); the
 //! shell loads and saves them. With `popularity` on, each new exploration's γ comes from them.
 
-use crate::clock::{FixedClock, SessionFeed};
+use crate::clock::{Playing, SessionFeed, Stepper, Touchable};
 use crate::explore::ExploreSettings;
 use crate::explore::Explorer;
 use crate::gesture::{TouchEvent, TouchKind};
@@ -239,6 +239,12 @@ pub struct Kiosk<'a, B: AsRef<[u8]>> {
     observers: Vec<Observer>,
     visit: Option<VisitRecord>,
     finished: Vec<VisitRecord>,
+}
+
+impl<B: AsRef<[u8]>> Touchable for Kiosk<'_, B> {
+    fn touch(&mut self, e: &TouchEvent) {
+        Kiosk::touch(self, e);
+    }
 }
 
 impl<'a, B: AsRef<[u8]>> Kiosk<'a, B> {
@@ -698,12 +704,10 @@ pub fn run_session<B: AsRef<[u8]>>(
         .map(|m| ModelRef { store: m.store, graph: m.graph, up: m.up, front: m.front })
         .collect();
     let mut kiosk = Kiosk::new(settings.clone(), held, 0.0);
-    let mut clock = FixedClock::new(settings.explore.fps);
-    let end = clock.time(clock.steps_for(session.duration() + extra_secs) - 1);
-    let mut feed = SessionFeed::once();
+    let mut stepper = Stepper::new(settings.explore.fps, Playing::new(session, SessionFeed::once()));
+    let end = stepper.clock().end_of(session.duration() + extra_secs);
     let mut out = Vec::new();
-    while let Some(t) = clock.next_due(end) {
-        feed.due(session, t, &mut |e| kiosk.touch(e));
+    while let Some(t) = stepper.next(end, &mut kiosk) {
         out.push(kiosk.step(t));
     }
     out

@@ -3,7 +3,7 @@
 //! settings and seed → byte-identical trace.
 
 pub use crate::camera::{ControllerKind, initial_camera, make_controller, start_camera};
-use crate::clock::{FixedClock, SessionFeed};
+use crate::clock::{Playing, SessionFeed, Stepper};
 pub use crate::explore::ExploreSettings;
 use crate::explore::Explorer;
 use crate::graph::InfoGraph;
@@ -39,12 +39,10 @@ pub fn run_story_with<B: AsRef<[u8]>>(
     frame: &mut dyn FnMut(Frame),
 ) -> (&'static str, Summary) {
     let mut explorer = Explorer::new(store, graph, settings, 0.0);
-    let mut clock = FixedClock::new(settings.fps);
+    let mut stepper = Stepper::new(settings.fps, Playing::new(session, SessionFeed::once()));
     // Session times are bounded when parsed (`session::MAX_SESSION_SECS`).
-    let end = clock.time(clock.steps_for(session.duration() + settings.tail_secs) - 1);
-    let mut feed = SessionFeed::once();
-    while let Some(t) = clock.next_due(end) {
-        feed.due(session, t, &mut |e| explorer.touch(e));
+    let end = stepper.clock().end_of(session.duration() + settings.tail_secs);
+    while let Some(t) = stepper.next(end, &mut explorer) {
         frame(explorer.step(t).0);
     }
     (explorer.controller_name(), explorer.summary)

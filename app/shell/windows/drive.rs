@@ -6,7 +6,7 @@
 //!   screenshots due (`--screenshot-at`) and a soak run's reports (`--run-for`): resident memory,
 //!   open file descriptors and the size of the state directory (statistics and visit log).
 
-use kiosk_core::clock::SessionFeed;
+use kiosk_core::clock::{SessionFeed, TouchSource};
 use kiosk_core::gesture::TouchEvent;
 use kiosk_core::session::Session;
 use std::io::Write;
@@ -37,10 +37,12 @@ impl Input {
     pub(super) fn end(&self, run_for: Option<f64>) -> Option<f64> {
         self.session.as_ref().map(|(s, _)| run_for.unwrap_or(s.duration() + 1.0))
     }
+}
 
+impl TouchSource for Input {
     /// Hands `feed` every touch due at kiosk time `t`, the session's first, in order; a live
     /// touch stamped after the step's time waits for its step.
-    pub(super) fn due(&mut self, t: f64, feed: &mut dyn FnMut(&TouchEvent)) {
+    fn due(&mut self, t: f64, feed: &mut dyn FnMut(&TouchEvent)) {
         if let Some((session, playing)) = &mut self.session {
             playing.due(session, t, feed);
         }

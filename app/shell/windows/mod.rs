@@ -24,6 +24,7 @@ use graphics::{Graphics, Windows};
 use kiosk_content::MappedStore;
 use kiosk_content::snapshot::{lit, node_light, start_light};
 use kiosk_core::camera::{Camera, GoTo, SceneRef};
+use kiosk_core::clock::Stepper;
 use kiosk_core::gesture::{TouchEvent, TouchKind};
 use kiosk_core::graph::InfoGraph;
 use kiosk_core::kiosk::{Kiosk, KioskEffect, KioskSettings, Mode, ModelRef};
@@ -217,10 +218,9 @@ struct Running<'a> {
     start: Instant,
     /// Kiosk time of the last 60 Hz step.
     sim_t: f64,
-    /// The core's fixed clock (the one replays step by).
-    clock: kiosk_core::clock::FixedClock,
-    /// Live touches and the recorded session.
-    input: drive::Input,
+    /// The core's fixed-clock loop (the one replays step by), with live touches and the
+    /// recorded session as its input.
+    drive: Stepper<drive::Input>,
     /// The trace, screenshots and soak reports.
     probes: drive::Probes,
     record: Option<std::io::BufWriter<std::fs::File>>,
@@ -368,8 +368,7 @@ impl<'a> App<'a> {
             narrator,
             start: Instant::now(),
             sim_t: 0.0,
-            clock: kiosk_core::clock::FixedClock::new(fps),
-            input,
+            drive: Stepper::new(fps, input),
             probes,
             record,
             cursor: (0.5, 0.5),
@@ -533,18 +532,16 @@ impl Running<'_> {
                 tracing::error!("cannot write the session record; recording stops");
             }
         }
-        self.input.push(e);
+        self.drive.source().push(e);
     }
 
     /// Steps the core up to the clock, renders, and takes due screenshots. `false` = done.
     fn tick(&mut self, opts: &RunOptions, exhibits: &[Exhibit]) -> anyhow::Result<bool> {
-        let dt = self.clock.dt();
+        let dt = self.drive.clock().dt();
         let now = self.kiosk_time(opts.speed);
-        let end = self.input.end(opts.run_for);
+        let end = self.drive.source().end(opts.run_for);
         let mut stepped = false;
-        while let Some(t) = self.clock.next_due(now) {
-            let kiosk = &mut self.kiosk;
-            self.input.due(t, &mut |e| kiosk.touch(e));
+        while let Some(t) = self.drive.next(now, &mut self.kiosk) {
             let before = self.kiosk.mode();
             let frame = self.kiosk.step(t);
             if before != Mode::Gallery
@@ -562,7 +559,7 @@ impl Running<'_> {
             self.persist(exhibits, false);
             self.sim_t = t;
             stepped = true;
-            self.probes.stepped(&frame, t, self.clock.steps(), dt)?;
+            self.probes.stepped(&frame, t, self.drive.clock().steps(), dt)?;
             if let Some(at) = self.probes.screenshot_due(t) {
                 self.render(exhibits, t)?;
                 self.capture(&opts.screenshot_dir, at)?;
@@ -580,7 +577,7 @@ impl Running<'_> {
             self.probes.finish(
                 self.sim_t,
                 self.start.elapsed().as_secs_f64(),
-                self.clock.steps(),
+                self.drive.clock().steps(),
                 self.rendered,
             )?;
             return Ok(false);
