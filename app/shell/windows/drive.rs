@@ -1,13 +1,15 @@
 //! What drives the kiosk's 60 Hz loop and what watches it, kept apart from the windows:
-//! - [`Input`]: where touches come from — the live windows (queued until their step) and, with
-//!   `--session`, a recorded session played at its own timing (over and over for a soak run,
-//!   each new visitor 2 s after the last one's final event).
+//! - [`Input`]: where touches come from — the live windows (recorded with `--record`, queued
+//!   until their step; the mouse is a finger of its own, [`Pointer`]) and, with `--session`, a
+//!   recorded session played at its own timing (over and over for a soak run, each new visitor
+//!   2 s after the last one's final event). It is the touch source of the core's fixed-clock
+//!   loop ([`kiosk_core::clock::Stepper`]).
 //! - [`Probes`]: what the loop reports — the trace (`--trace`, one JSON line per step), the
 //!   screenshots due (`--screenshot-at`) and a soak run's reports (`--run-for`): resident memory,
 //!   open file descriptors and the size of the state directory (statistics and visit log).
 
 use kiosk_core::clock::{SessionFeed, TouchSource};
-use kiosk_core::gesture::TouchEvent;
+use kiosk_core::gesture::{TouchEvent, TouchKind};
 use kiosk_core::session::Session;
 use std::io::Write;
 
@@ -17,20 +19,31 @@ const NEXT_VISITOR_SECS: f64 = 2.0;
 /// The touches of the live windows and of a recorded session, handed out at their step.
 pub(super) struct Input {
     live: Vec<TouchEvent>,
+    /// Where live touches are recorded (`--record`), until a write fails.
+    record: Option<std::io::BufWriter<std::fs::File>>,
     /// The recorded session and where its playing stands (the core's feed, as replays use it).
     session: Option<(Session, SessionFeed)>,
 }
 
 impl Input {
-    /// Live input, plus `session` played from kiosk time 0 (again and again when `repeat`).
-    pub(super) fn new(session: Option<Session>, repeat: bool) -> Self {
+    /// Live input recorded to `record`, plus `session` played from kiosk time 0 (again and
+    /// again when `repeat`).
+    pub(super) fn new(
+        session: Option<Session>,
+        repeat: bool,
+        record: Option<std::io::BufWriter<std::fs::File>>,
+    ) -> Self {
         let feed = if repeat { SessionFeed::repeating(NEXT_VISITOR_SECS) } else { SessionFeed::once() };
-        Self { live: Vec::new(), session: session.map(|s| (s, feed)) }
+        Self { live: Vec::new(), record, session: session.map(|s| (s, feed)) }
     }
 
-    /// Queues a live touch for the step at or after its time.
-    pub(super) fn push(&mut self, e: TouchEvent) {
+    /// Queues a live touch for the step at or after its time, and records it. A record that
+    /// cannot be written stops (the error is returned once); the touch is queued all the same.
+    pub(super) fn push(&mut self, e: TouchEvent) -> std::io::Result<()> {
         self.live.push(e);
+        let Some(w) = self.record.as_mut() else { return Ok(()) };
+        let line = serde_json::to_string(&e).unwrap_or_default();
+        writeln!(w, "{line}").and_then(|()| w.flush()).inspect_err(|_| self.record = None)
     }
 
     /// Kiosk time at which a session run is over (`run_for` for a soak run), `None` when live.
@@ -54,6 +67,50 @@ impl TouchSource for Input {
                 true
             }
         });
+    }
+}
+
+/// The id of the mouse's left button as a finger.
+const MOUSE_FINGER: i64 = 1 << 40;
+
+/// The mouse as a finger: its left button held down is a touch that follows the cursor.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Pointer {
+    /// Where the cursor is, on the controller's canvas (0–1).
+    at: (f64, f64),
+    down: bool,
+}
+
+impl Default for Pointer {
+    fn default() -> Self {
+        Self { at: (0.5, 0.5), down: false }
+    }
+}
+
+impl Pointer {
+    /// Where the cursor is (0–1).
+    pub(super) fn at(&self) -> (f64, f64) {
+        self.at
+    }
+
+    /// The cursor moved to `(x, y)` at kiosk time `t`: a move of the finger while the button is
+    /// down.
+    pub(super) fn moved(&mut self, t: f64, x: f64, y: f64) -> Option<TouchEvent> {
+        self.at = (x, y);
+        self.down.then_some(TouchEvent { t, ev: TouchKind::Move, id: MOUSE_FINGER, x, y })
+    }
+
+    /// The left button pressed or released at `t`: the finger down or up (a release without a
+    /// press, e.g. of a press outside the window, is nothing).
+    pub(super) fn left(&mut self, t: f64, pressed: bool) -> Option<TouchEvent> {
+        let ev = match (pressed, self.down) {
+            (true, _) => TouchKind::Down,
+            (false, true) => TouchKind::Up,
+            (false, false) => return None,
+        };
+        self.down = pressed;
+        let (x, y) = self.at;
+        Some(TouchEvent { t, ev, id: MOUSE_FINGER, x, y })
     }
 }
 
@@ -163,4 +220,24 @@ pub(super) fn rss_kb() -> Option<u64> {
 fn status_kb(key: &str) -> Option<u64> {
     let s = std::fs::read_to_string("/proc/self/status").ok()?;
     s.lines().find_map(|l| l.strip_prefix(key)).and_then(|v| v.split_whitespace().next()?.parse().ok())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_mouse_is_a_finger_while_its_button_is_down() {
+        let mut p = Pointer::default();
+        assert_eq!(p.moved(0.0, 0.2, 0.3), None, "a cursor moving with the button up touches nothing");
+        assert_eq!(p.left(0.1, false), None, "a release without a press is nothing");
+        let down = p.left(0.2, true).expect("down");
+        assert_eq!((down.ev, down.x, down.y, down.id), (TouchKind::Down, 0.2, 0.3, MOUSE_FINGER));
+        let moved = p.moved(0.3, 0.4, 0.5).expect("move");
+        assert_eq!((moved.ev, moved.t, moved.x, moved.y), (TouchKind::Move, 0.3, 0.4, 0.5));
+        let up = p.left(0.4, false).expect("up");
+        assert_eq!((up.ev, up.x, up.y), (TouchKind::Up, 0.4, 0.5));
+        assert_eq!(p.moved(0.5, 0.6, 0.6), None);
+        assert_eq!(p.at(), (0.6, 0.6));
+    }
 }

@@ -52,8 +52,6 @@ pub fn radial_slot_px(size: (u32, u32), i: usize, n: usize) -> [f32; 4] {
     [r.min.x, r.min.y, r.max.x, r.max.y]
 }
 
-/// The id of the mouse's left button as a finger.
-const MOUSE_FINGER: i64 = 1 << 40;
 /// Size of the suggestion inset's render (pixels).
 const INSET_SIZE: (u32, u32) = (384, 216);
 /// Phases of the inset (seconds): fade in, path animation, fade out.
@@ -223,9 +221,8 @@ struct Running<'a> {
     drive: Stepper<drive::Input>,
     /// The trace, screenshots and soak reports.
     probes: drive::Probes,
-    record: Option<std::io::BufWriter<std::fs::File>>,
-    cursor: (f64, f64),
-    mouse_down: bool,
+    /// The mouse, a finger of its own.
+    pointer: drive::Pointer,
     /// Whether Ctrl is held (for Ctrl+Q).
     ctrl: bool,
     gallery_cut: Option<(usize, Cut)>,
@@ -356,7 +353,7 @@ impl<'a> App<'a> {
             std::fs::create_dir_all(&self.opts.screenshot_dir)
                 .with_context(|| format!("cannot create {}", self.opts.screenshot_dir.display()))?;
         }
-        let input = drive::Input::new(self.opts.session.clone(), self.opts.run_for.is_some());
+        let input = drive::Input::new(self.opts.session.clone(), self.opts.run_for.is_some(), record);
         let soak = self.opts.run_for.map(|_| self.opts.warmup);
         let probes = drive::Probes::new(trace, self.opts.screenshot_at.clone(), soak, &state_dir);
         Ok(Running {
@@ -370,9 +367,7 @@ impl<'a> App<'a> {
             sim_t: 0.0,
             drive: Stepper::new(fps, input),
             probes,
-            record,
-            cursor: (0.5, 0.5),
-            mouse_down: false,
+            pointer: drive::Pointer::default(),
             ctrl: false,
             gallery_cut: None,
             render_settings: self.opts.config.render_settings(),
@@ -437,31 +432,24 @@ impl ApplicationHandler for App<'_> {
                 s.input(TouchEvent { t: s.kiosk_time(self.opts.speed), ev, id: t.id as i64, x, y });
             }
             WindowEvent::CursorMoved { position, .. } => {
-                s.cursor = s.normalised(position.x, position.y);
-                if s.mouse_down {
-                    let (x, y) = s.cursor;
-                    s.input(TouchEvent {
-                        t: s.kiosk_time(self.opts.speed),
-                        ev: TouchKind::Move,
-                        id: MOUSE_FINGER,
-                        x,
-                        y,
-                    });
+                let (x, y) = s.normalised(position.x, position.y);
+                if let Some(e) = s.pointer.moved(s.kiosk_time(self.opts.speed), x, y) {
+                    s.input(e);
                 }
             }
             WindowEvent::MouseInput { state, button, .. } => {
-                let (x, y) = s.cursor;
                 let t = s.kiosk_time(self.opts.speed);
-                match (button, state) {
-                    (MouseButton::Left, ElementState::Pressed) => {
-                        s.mouse_down = true;
-                        s.input(TouchEvent { t, ev: TouchKind::Down, id: MOUSE_FINGER, x, y });
+                let pressed = state == ElementState::Pressed;
+                match button {
+                    MouseButton::Left => {
+                        if let Some(e) = s.pointer.left(t, pressed) {
+                            s.input(e);
+                        }
                     }
-                    (MouseButton::Left, ElementState::Released) if s.mouse_down => {
-                        s.mouse_down = false;
-                        s.input(TouchEvent { t, ev: TouchKind::Up, id: MOUSE_FINGER, x, y });
+                    MouseButton::Right if pressed => {
+                        let (x, y) = s.pointer.at();
+                        s.kiosk.menu_button(t, x, y);
                     }
-                    (MouseButton::Right, ElementState::Pressed) => s.kiosk.menu_button(t, x, y),
                     _ => {}
                 }
             }
@@ -523,16 +511,11 @@ impl Running<'_> {
         self.gfx.controller.to_canvas(u, v)
     }
 
+    /// A live touch: recorded (`--record`) and queued for its step.
     fn input(&mut self, e: TouchEvent) {
-        if let Some(w) = self.record.as_mut() {
-            let line = serde_json::to_string(&e).unwrap_or_default();
-            if writeln!(w, "{line}").and_then(|()| w.flush()).is_err()
-                && self.reported.insert("record".into())
-            {
-                tracing::error!("cannot write the session record; recording stops");
-            }
+        if let Err(err) = self.drive.source().push(e) {
+            self.report("record", &format!("cannot write the session record; recording stops: {err}"));
         }
-        self.drive.source().push(e);
     }
 
     /// Steps the core up to the clock, renders, and takes due screenshots. `false` = done.
