@@ -352,12 +352,25 @@ impl Project {
         p
     }
 
-    /// Turns the model upright: sets its up axis (one of [`UP_AXES`]) and writes it to
-    /// `exhibit.toml` at once (atomically), so the kiosk shows the model the same way. A front
-    /// that lies along the new up axis is dropped (the default front is used).
+    /// Turns the model upright: sets its up direction (one of [`UP_AXES`] or any direction, made
+    /// unit) and writes it to `exhibit.toml` at once (atomically), so the kiosk shows the model
+    /// the same way. A front that lies along the new up direction is dropped (the default front
+    /// is used); another is levelled to it.
     pub fn set_up(&mut self, up: DVec3) -> anyhow::Result<()> {
-        UP_AXES.iter().find(|(_, a)| *a == up).context("not an axis")?;
+        let up = ModelPose::unit_up(up).with_context(|| format!("up = {up}: not a direction"))?;
         let front = self.pose.front.and_then(|f| ModelPose::level(up, f));
+        self.write_pose(ModelPose { up, front })
+    }
+
+    /// Tilts the model: turns its whole pose (up and front) by `angle` radians about `axis`, for a
+    /// scan that stands a few degrees off an axis in its file (the authoring tool turns it about
+    /// the live view's direction or its horizontal). Written to `exhibit.toml` at once.
+    pub fn tilt(&mut self, axis: DVec3, angle: f64) -> anyhow::Result<()> {
+        let axis = axis.try_normalize().with_context(|| format!("tilt axis {axis}: not a direction"))?;
+        anyhow::ensure!(angle.is_finite(), "tilt angle {angle}: not a number");
+        let turn = glam::DQuat::from_axis_angle(axis, angle);
+        let up = ModelPose::unit_up(turn * self.pose.up).context("the tilted up")?;
+        let front = self.pose.front.map(|f| turn * f).and_then(|f| ModelPose::level(up, f));
         self.write_pose(ModelPose { up, front })
     }
 

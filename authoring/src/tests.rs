@@ -204,11 +204,33 @@ fn a_curator_turns_the_model_upright_and_the_kiosk_reads_it() {
     let (again, problems) = open(dir.path()).expect("reopen");
     assert_eq!(again.pose.up, DVec3::Z);
     assert!(problems.is_empty(), "{problems:?}");
-    assert!(p.set_up(DVec3::new(1.0, 1.0, 0.0)).is_err(), "only the six axes");
+    assert!(p.set_up(DVec3::ZERO).is_err(), "not a direction");
+    assert!(p.set_up(DVec3::new(f64::NAN, 1.0, 0.0)).is_err(), "not a direction");
     std::fs::write(dir.path().join("exhibit.toml"), "up = \"diagonal\"\n").expect("write");
     let (broken, problems) = open(dir.path()).expect("opens all the same");
     assert_eq!(broken.pose.up, DVec3::Y);
     assert!(problems.iter().any(|p| p.msg.contains("diagonal")), "{problems:?}");
+}
+
+#[test]
+fn a_curator_tilts_a_scan_standing_off_axis_and_the_kiosk_reads_it() {
+    let dir = exhibit();
+    let (mut p, _) = open(dir.path()).expect("open");
+    p.set_front(DVec3::Z).expect("front +Z");
+    // 3° then 4° about X: the pose turns as one, up and front, and the kiosk reads the vectors.
+    p.tilt(DVec3::X, 3f64.to_radians()).expect("tilt");
+    p.tilt(DVec3::new(2.0, 0.0, 0.0), 4f64.to_radians()).expect("tilt again");
+    let (s, c) = 7f64.to_radians().sin_cos();
+    let pose = kiosk_content::exhibit::model_pose(dir.path()).expect("the kiosk reads it");
+    assert!(pose.up.abs_diff_eq(DVec3::new(0.0, c, s), 1e-12), "{pose:?}");
+    assert!(pose.front.expect("front").abs_diff_eq(DVec3::new(0.0, -s, c), 1e-12), "{pose:?}");
+    let start = kiosk_core::replay::start_camera(&p.store, 0.8, pose.up, pose.front);
+    assert!(start.up.abs_diff_eq(pose.up, 1e-9), "the start view stands on the tilted up: {}", start.up);
+    // Tilted back: the axis again, by name.
+    p.tilt(DVec3::X, -7f64.to_radians()).expect("tilt back");
+    let saved = std::fs::read_to_string(dir.path().join("exhibit.toml")).expect("exhibit.toml");
+    assert!(saved.contains("up = \"y\"") && saved.contains("front = \"z\""), "{saved}");
+    assert!(p.tilt(DVec3::ZERO, 0.1).is_err() && p.tilt(DVec3::X, f64::NAN).is_err());
 }
 
 #[test]

@@ -280,6 +280,46 @@ fn the_model_is_turned_upright_from_the_toolbar() {
 }
 
 #[test]
+fn a_crooked_model_is_levelled_degree_by_degree_from_the_toolbar() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    copy_dir(&repo().join("content/demosthenes"), dir.path());
+    let mut h = harness(dir.path());
+    // The bust's own vertical (+Y) on the live view's screen: its angle counter-clockwise from
+    // the view's up, and how far it leans into the screen.
+    let seen = |h: &Harness<'_, AuthorApp>| {
+        let cam = h.state().camera();
+        let right = cam.forward().cross(cam.up);
+        let y = glam::DVec3::Y;
+        ((-y.dot(right)).atan2(y.dot(cam.up)).to_degrees(), y.dot(cam.forward()))
+    };
+    let (angle, _) = seen(&h);
+    assert!(angle.abs() < 1e-6, "the bust starts upright: {angle}°");
+    for _ in 0..3 {
+        click(&mut h, "Lean left");
+    }
+    let (angle, _) = seen(&h);
+    assert!((angle - 3.0).abs() < 1e-6, "three clicks lean it 3° to the left: {angle}°");
+    click(&mut h, "Lean right");
+    let (angle, _) = seen(&h);
+    assert!((angle - 2.0).abs() < 1e-6, "one back: {angle}°");
+    let saved = std::fs::read_to_string(dir.path().join("exhibit.toml")).expect("exhibit.toml written");
+    assert!(saved.contains("up = ["), "a vector up: {saved}");
+    let pose = kiosk_content::exhibit::model_pose(dir.path()).expect("the kiosk reads it");
+    assert!((pose.up.dot(glam::DVec3::Y).acos().to_degrees() - 2.0).abs() < 1e-6, "{pose:?}");
+    // Tipped back: the new up leans toward the viewer, so the bust stands tipped away from it.
+    let cam = h.state().camera();
+    click(&mut h, "Tip back");
+    let pose = kiosk_content::exhibit::model_pose(dir.path()).expect("read");
+    assert!(pose.up.dot(cam.forward()) < -0.01, "{pose:?}");
+    assert!(h.state().camera().forward().abs_diff_eq(cam.forward(), 1e-9), "the live view stays");
+    click(&mut h, "Tip forward");
+    click(&mut h, "Lean right");
+    click(&mut h, "Lean right");
+    let saved = std::fs::read_to_string(dir.path().join("exhibit.toml")).expect("exhibit.toml");
+    assert!(saved.contains("up = \"y\""), "levelled back to the axis: {saved}");
+}
+
+#[test]
 fn the_side_in_view_becomes_the_front_from_the_toolbar() {
     let dir = tempfile::tempdir().expect("temp dir");
     copy_dir(&repo().join("content/demosthenes"), dir.path());

@@ -329,12 +329,8 @@ fn a_las_cloud_a_million_metres_away_renders_like_the_cloud_at_the_origin() {
     assert!(s > 0.995, "SSIM {s}");
 }
 
-#[test]
-fn a_z_up_scan_starts_upright_like_the_same_scan_standing_on_y() {
-    // The bunny as scanned (Y up) and turned to stand on Z, as scanners and Metashape deliver
-    // it ((x, y, z) → (x, −z, y)), each an exhibit of its own, the second saying `up = "z"`: the
-    // kiosk's start view (`kiosk snapshot` without a view) shows both the same, upright.
-    let dir = tempfile::tempdir().expect("temp dir");
+/// The small bunny's PLY text, and the same with every vertex moved by `turn`.
+fn bunny_ply_turned(turn: impl Fn(DVec3) -> DVec3) -> (String, String) {
     let text =
         std::fs::read_to_string(common::data("scans/stanford-bunny/bun_zipper_res2.ply")).expect("bunny");
     let (header, body) = text.split_once("end_header\n").expect("a PLY header");
@@ -347,21 +343,34 @@ fn a_z_up_scan_starts_upright_like_the_same_scan_standing_on_y() {
     for (i, line) in body.lines().enumerate() {
         let v: Vec<&str> = line.split_whitespace().collect();
         if i < vertices {
-            let z: f64 = v[2].parse().expect("z");
-            turned += &format!("{} {} {} {}\n", v[0], -z, v[1], v[3..].join(" "));
+            let p: Vec<f64> = v[..3].iter().map(|x| x.parse().expect("a coordinate")).collect();
+            let q = turn(DVec3::new(p[0], p[1], p[2]));
+            turned += &format!("{} {} {} {}\n", q.x, q.y, q.z, v[3..].join(" "));
         } else {
             turned += &format!("{line}\n");
         }
     }
-    let exhibit = |name: &str, ply: &str, up: Option<&str>| {
-        let d = dir.path().join(name);
-        std::fs::create_dir_all(&d).expect("exhibit dir");
-        std::fs::write(d.join("bunny.ply"), ply).expect("scan");
-        if let Some(up) = up {
-            std::fs::write(d.join("exhibit.toml"), format!("up = \"{up}\"\n")).expect("exhibit.toml");
-        }
-        d
-    };
+    (text, turned)
+}
+
+/// An exhibit directory `name` under `dir` with the scan `ply` and, if given, `exhibit.toml`.
+fn ply_exhibit(dir: &Path, name: &str, ply: &str, toml: Option<&str>) -> PathBuf {
+    let d = dir.join(name);
+    std::fs::create_dir_all(&d).expect("exhibit dir");
+    std::fs::write(d.join("bunny.ply"), ply).expect("scan");
+    if let Some(toml) = toml {
+        std::fs::write(d.join("exhibit.toml"), toml).expect("exhibit.toml");
+    }
+    d
+}
+
+#[test]
+fn a_z_up_scan_starts_upright_like_the_same_scan_standing_on_y() {
+    // The bunny as scanned (Y up) and turned to stand on Z, as scanners and Metashape deliver
+    // it ((x, y, z) → (x, −z, y)), each an exhibit of its own, the second saying `up = "z"`: the
+    // kiosk's start view (`kiosk snapshot` without a view) shows both the same, upright.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (text, turned) = bunny_ply_turned(|p| DVec3::new(p.x, -p.z, p.y));
     let shot = |exhibit: &Path| {
         common::snapshot(
             exhibit,
@@ -370,14 +379,63 @@ fn a_z_up_scan_starts_upright_like_the_same_scan_standing_on_y() {
             &["--size", "240x180"],
         )
     };
-    let standing = shot(&exhibit("y-up", &text, None));
-    let lying = shot(&exhibit("z-up", &turned, Some("z")));
+    let standing = shot(&ply_exhibit(dir.path(), "y-up", &text, None));
+    let lying = shot(&ply_exhibit(dir.path(), "z-up", &turned, Some("up = \"z\"\n")));
     let s = ssim(&standing, &lying);
     assert!(s > 0.99, "SSIM {s}: the Z-up scan does not start as the Y-up one");
     // Without its exhibit.toml the Z-up scan is seen lying on its side: the check can tell.
-    let unsaid = shot(&exhibit("z-up-unsaid", &turned, None));
+    let unsaid = shot(&ply_exhibit(dir.path(), "z-up-unsaid", &turned, None));
     let s = ssim(&standing, &unsaid);
     assert!(s < 0.9, "SSIM {s}: a lying bunny looks like a standing one");
+}
+
+#[test]
+fn a_scan_turned_any_way_starts_upright_when_its_exhibit_says_how() {
+    // The bunny turned 37° about an oblique axis, and its exhibit.toml giving the turned up and
+    // front as vectors: the kiosk's start view shows it upright, from the front, as the same view
+    // turned back shows the bunny as scanned.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let cache = dir.path().join("cache");
+    let turn = glam::DQuat::from_axis_angle(DVec3::new(0.3, 0.8, 0.5).normalize(), 37f64.to_radians());
+    let (text, turned) = bunny_ply_turned(|p| turn * p);
+    let (up, front) = (turn * DVec3::Y, turn * DVec3::Z);
+    let toml =
+        format!("up = [{}, {}, {}]\nfront = [{}, {}, {}]\n", up.x, up.y, up.z, front.x, front.y, front.z);
+    let said = ply_exhibit(dir.path(), "turned", &turned, Some(&toml));
+    let size = ["--size", "240x180"];
+    let start = common::snapshot(&said, &said.join("start.png"), &cache, &size);
+    let store = kiosk_content::exhibit::open_model_in(&said, &cache).expect("the turned store");
+    let cam = kiosk_core::replay::start_camera(&store, 0.8, up, Some(front));
+    assert!(cam.up.abs_diff_eq(up, 1e-9), "the start view stands on the stated up: {}", cam.up);
+    let back = turn.inverse();
+    let (e, t, u) = (back * cam.eye, back * cam.target, back * cam.up);
+    let view = format!(
+        "{},{},{},{},{},{},{},{},{},{}",
+        e.x,
+        e.y,
+        e.z,
+        t.x,
+        t.y,
+        t.z,
+        u.x,
+        u.y,
+        u.z,
+        0.8f64.to_degrees()
+    );
+    let standing = ply_exhibit(dir.path(), "as-scanned", &text, None);
+    let expected = common::snapshot(
+        &standing,
+        &standing.join("view.png"),
+        &cache,
+        &[&size[..], &["--view", &view]].concat(),
+    );
+    let s = ssim(&expected, &start);
+    assert!(s > 0.98, "SSIM {s}: the turned scan does not start as the scan seen the same way");
+    // Without its exhibit.toml the turned scan starts askew: the check can tell.
+    let unsaid = ply_exhibit(dir.path(), "turned-unsaid", &turned, None);
+    let askew = common::snapshot(&unsaid, &unsaid.join("start.png"), &cache, &size);
+    let s = ssim(&expected, &askew);
+    assert!(s < 0.9, "SSIM {s}: an askew bunny looks like an upright one");
 }
 
 #[test]

@@ -146,15 +146,19 @@ fn cache_name(file: &Path, options: &ImportOptions, revision: u32) -> anyhow::Re
 /// How an exhibit's model stands, from `exhibit.toml` beside it:
 ///
 /// ```toml
-/// up = "z"          # its up axis: x, y, z, -x, -y or -z (default y)
+/// up = "z"          # its up axis: x, y, z, -x, -y or -z (default y), or [x, y, z]
 /// front = "-y"      # the side the kiosk's start view looks at: an axis or [x, y, z]
 /// ```
 ///
-/// `front` is made perpendicular to `up` (default: [`kiosk_core::camera::default_front`]). No
-/// file: +Y up, the default front. An invalid file is an error naming it and the key.
+/// Together they are the model's rotation, any rotation: `up` says which way is up (a vector for
+/// a scan that stands tilted in its file; the authoring tool tilts it degree by degree), `front`
+/// turns it about that axis. `up` is made unit, `front` perpendicular to `up` and unit (default:
+/// [`kiosk_core::camera::default_front`]). No file: +Y up, the default front. An invalid file is
+/// an error naming it and the key. The store is not turned: the kiosk's camera, its start view
+/// and IsoCam's up vector follow the pose, so a changed pose needs no new import.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ModelPose {
-    /// The model's up axis (unit).
+    /// The model's up direction (unit).
     pub up: glam::DVec3,
     /// The side the start view looks at (unit, perpendicular to `up`), if the exhibit says.
     pub front: Option<glam::DVec3>,
@@ -167,18 +171,34 @@ impl Default for ModelPose {
 }
 
 impl ModelPose {
-    /// `exhibit.toml`'s text for this pose.
+    /// `exhibit.toml`'s text for this pose (an axis by its name, another direction as a vector
+    /// that reads back exactly).
     pub fn to_toml(&self) -> String {
-        let up = UP_AXES.iter().find(|(_, a)| *a == self.up).map_or("y", |(n, _)| *n);
-        let mut text = format!("# The model's up axis: x, y, z, -x, -y or -z.\nup = \"{up}\"\n");
+        let direction = |d: glam::DVec3| match UP_AXES.iter().find(|(_, a)| a.abs_diff_eq(d, 1e-12)) {
+            Some((n, _)) => format!("\"{n}\""),
+            None => format!("[{}, {}, {}]", d.x, d.y, d.z),
+        };
+        let mut text = format!(
+            "# The model's up direction: x, y, z, -x, -y, -z or [x, y, z].\nup = {}\n",
+            direction(self.up)
+        );
         if let Some(f) = self.front {
-            text += "# The side the kiosk's start view looks at (an axis, or x, y, z).\n";
-            match UP_AXES.iter().find(|(_, a)| a.abs_diff_eq(f, 1e-12)) {
-                Some((n, _)) => text += &format!("front = \"{n}\"\n"),
-                None => text += &format!("front = [{}, {}, {}]\n", f.x, f.y, f.z),
-            }
+            text += "# The side the kiosk's start view looks at (an axis, or [x, y, z]).\n";
+            text += &format!("front = {}\n", direction(f));
         }
         text
+    }
+
+    /// The up direction `up` unit, or an axis when it is one to within rounding (a file's
+    /// decimals): `None` for a zero or non-finite vector. A vector unit to within rounding is
+    /// kept as it is, so that a pose written and read back is the same, bit for bit.
+    pub fn unit_up(up: glam::DVec3) -> Option<glam::DVec3> {
+        let u = if up.is_finite() && (up.length_squared() - 1.0).abs() < 1e-12 {
+            up
+        } else {
+            up.try_normalize()?
+        };
+        Some(UP_AXES.iter().map(|(_, a)| *a).find(|a| a.abs_diff_eq(u, 1e-12)).unwrap_or(u))
     }
 
     /// `front` made perpendicular to `up` and unit; `None` when it is (nearly) along `up`.
@@ -205,17 +225,24 @@ pub fn model_pose(dir: &Path) -> anyhow::Result<ModelPose> {
     #[derive(serde::Deserialize)]
     #[serde(deny_unknown_fields)]
     struct ExhibitFile {
-        up: Option<String>,
+        up: Option<Direction>,
         front: Option<Direction>,
     }
     let file: ExhibitFile = toml::from_str(&text).with_context(|| format!("{}", path.display()))?;
     let axis = |key: &str, name: &str| match UP_AXES.iter().find(|(n, _)| *n == name.trim()) {
         Some((_, axis)) => Ok(*axis),
-        None => anyhow::bail!("{}: {key} = {name:?}: must be x, y, z, -x, -y or -z", path.display()),
+        None => {
+            anyhow::bail!("{}: {key} = {name:?}: must be x, y, z, -x, -y, -z or [x, y, z]", path.display())
+        }
     };
-    let up = match file.up.as_deref() {
-        Some(name) => axis("up", name)?,
+    let up = match file.up {
         None => glam::DVec3::Y,
+        Some(Direction::Axis(name)) => axis("up", &name)?,
+        Some(Direction::Vector(v)) => {
+            let v = glam::DVec3::from_array(v);
+            ModelPose::unit_up(v)
+                .with_context(|| format!("{}: up = {v}: a direction, not zero or infinite", path.display()))?
+        }
     };
     let front = match file.front {
         None => None,
@@ -240,12 +267,12 @@ pub fn model_pose(dir: &Path) -> anyhow::Result<ModelPose> {
     Ok(ModelPose { up, front })
 }
 
-/// The up axis of an exhibit's model ([`model_pose`]'s `up`).
+/// The up direction of an exhibit's model ([`model_pose`]'s `up`).
 pub fn model_up(dir: &Path) -> anyhow::Result<glam::DVec3> {
     Ok(model_pose(dir)?.up)
 }
 
-/// The up axes a model may have, with their names in `exhibit.toml`.
+/// The axes a model's up (and front) may be named by in `exhibit.toml`.
 pub const UP_AXES: [(&str, glam::DVec3); 6] = [
     ("y", glam::DVec3::Y),
     ("z", glam::DVec3::Z),
@@ -385,6 +412,32 @@ mod tests {
             std::fs::write(&file, text).expect("write");
             let e = format!("{:#}", model_pose(dir.path()).expect_err(text));
             assert!(e.contains("exhibit.toml") && e.contains(says), "{text}: {e}");
+        }
+    }
+
+    #[test]
+    fn a_tilted_scan_states_its_up_as_a_vector() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let file = dir.path().join("exhibit.toml");
+        // A scan standing 10° off Z: the vector is made unit, the front levelled to it.
+        let (s, c) = 10f64.to_radians().sin_cos();
+        std::fs::write(&file, format!("up = [{}, 0.0, {}]\nfront = \"-y\"\n", 2.0 * s, 2.0 * c))
+            .expect("write");
+        let pose = model_pose(dir.path()).expect("a vector up");
+        assert!(pose.up.abs_diff_eq(glam::DVec3::new(s, 0.0, c), 1e-12), "{pose:?}");
+        assert!(pose.front.expect("front").abs_diff_eq(glam::DVec3::NEG_Y, 1e-12), "{pose:?}");
+        // Written back: a vector that reads back exactly; an axis stays an axis by name.
+        let tilted = ModelPose { up: glam::DVec3::new(0.1, 0.2, 0.3).normalize(), front: None };
+        std::fs::write(&file, tilted.to_toml()).expect("write");
+        assert_eq!(model_pose(dir.path()).expect("read back"), tilted);
+        assert!(ModelPose { up: glam::DVec3::Z, front: None }.to_toml().contains("up = \"z\""));
+        // A vector along an axis to within a file's decimals is that axis.
+        std::fs::write(&file, "up = [0.0, 0.0, 2.0]\n").expect("write");
+        assert_eq!(model_pose(dir.path()).expect("axis").up, glam::DVec3::Z);
+        for (text, says) in [("up = [0.0, 0.0, 0.0]\n", "not zero"), ("up = [nan, 1.0, 0.0]\n", "not zero")] {
+            std::fs::write(&file, text).expect("write");
+            let e = format!("{:#}", model_pose(dir.path()).expect_err(text));
+            assert!(e.contains("exhibit.toml") && e.contains("up = ") && e.contains(says), "{text}: {e}");
         }
     }
 

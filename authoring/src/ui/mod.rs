@@ -38,6 +38,15 @@ pub enum Tool {
     Light,
 }
 
+/// How the toolbar tilts a crooked model ([`AuthorApp::tilt`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Tilt {
+    /// Turns it on the screen, about the view direction.
+    Lean,
+    /// Tips its top away from the viewer, about the view's horizontal.
+    Tip,
+}
+
 /// Weight presets of dependencies.
 pub const PRESETS: [(&str, f64); 3] = [("Mandatory", 1.0), ("Strong", 0.8), ("Weak", 0.2)];
 
@@ -246,11 +255,46 @@ impl AuthorApp {
         self.say("the side in view is the model's front; saved in exhibit.toml");
     }
 
+    /// Tilts the model by `degrees` as seen in the live view: `Lean` turns it on the screen
+    /// (counter-clockwise for a positive angle), `Tip` tips its top away from the viewer. For a
+    /// scan that stands crooked in its file: the pose is saved in `exhibit.toml`, and the live
+    /// view stays where it is, upright on the new up.
+    pub fn tilt(&mut self, how: Tilt, degrees: f64) {
+        let cam = self.camera();
+        let forward = cam.forward();
+        // The up direction turned about the view direction toward the view's right makes the
+        // view, standing on it, turn the same way: the model is seen turned the other way.
+        let axis = match how {
+            Tilt::Lean => forward,
+            Tilt::Tip => forward.cross(cam.up),
+        };
+        let r = self.project.tilt(axis, degrees.to_radians());
+        if self.report("model tilt", r).is_none() {
+            return;
+        }
+        let up = self.project.pose.up;
+        self.live_view_from(Camera { up: kiosk_core::camera::orthonormal_up(forward, up, cam.up), ..cam });
+        let tilt = up.dot(self.nearest_axis()).clamp(-1.0, 1.0).acos().to_degrees();
+        self.say(format!("model tilted: {tilt:.1}° off its axis; saved in exhibit.toml"));
+    }
+
+    /// The named axis nearest the model's up.
+    fn nearest_axis(&self) -> glam::DVec3 {
+        let up = self.project.pose.up;
+        crate::UP_AXES.iter().map(|(_, a)| *a).max_by(|a, b| a.dot(up).total_cmp(&b.dot(up))).unwrap_or(up)
+    }
+
     /// The live view from the kiosk's start view of the model as it now stands.
     fn restart_live_view(&mut self) {
         let store = &self.project.store;
+        let cam = start_camera(store, 0.8, self.project.pose.up, self.project.pose.front);
+        self.live_view_from(cam);
+    }
+
+    /// The live view from `cam`, upright on the model's up.
+    fn live_view_from(&mut self, cam: Camera) {
+        let store = &self.project.store;
         let up = self.project.pose.up;
-        let cam = start_camera(store, 0.8, up, self.project.pose.front);
         self.cut = Cut::root(store);
         if let Some(v) = cam.view_params(store, LIVE_SIZE) {
             self.cut.update(store, &v, &CutParams { max_changes: usize::MAX, ..CutParams::default() });
@@ -619,6 +663,21 @@ impl AuthorApp {
                 if ui.selectable_label(current == axis, name).clicked() && current != axis {
                     self.set_up(axis);
                 }
+            }
+            let step = 1.0;
+            let hover =
+                "For a scan that stands crooked in its file: tilts the model 1° as seen in the live view";
+            if ui.button("Lean left").on_hover_text(hover).clicked() {
+                self.tilt(Tilt::Lean, step);
+            }
+            if ui.button("Lean right").on_hover_text(hover).clicked() {
+                self.tilt(Tilt::Lean, -step);
+            }
+            if ui.button("Tip back").on_hover_text(hover).clicked() {
+                self.tilt(Tilt::Tip, step);
+            }
+            if ui.button("Tip forward").on_hover_text(hover).clicked() {
+                self.tilt(Tilt::Tip, -step);
             }
             if ui
                 .button("Front from view")
