@@ -382,7 +382,7 @@ pub(crate) fn texture_2d(
     })
 }
 
-/// The surface shader (shaders/splat.wgsl), shared by the splat and the mesh pipelines.
+/// The surface shader (shaders/splat.wgsl): discs, points and blended splats.
 pub(crate) fn surface_shader(device: &wgpu::Device) -> wgpu::ShaderModule {
     device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("splat.wgsl"),

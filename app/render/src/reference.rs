@@ -1,9 +1,10 @@
 //! The mesh reference: a triangle mesh rasterised with the splats' camera, lighting and colour
-//! (the same shader module, `vs_mesh` + `fs_mesh`, the same frame uniforms), to measure the
-//! splats against the surface they sample. A textured mesh is coloured from its texture per
-//! pixel (`vs_mesh_textured` + `fs_mesh_textured`), as a viewer of the textured scan shows it.
-//! A benchmark and test aid, not a kiosk mode (behind the `reference` feature, which only the
-//! tests and benchmarks turn on): the mesh is uploaded at every call.
+//! (shaders/mesh_reference.wgsl, `vs_mesh` and `fs_mesh`, compiled after the splat shader whose
+//! frame uniforms and shading it uses), to measure the splats against the surface they sample. A
+//! textured mesh is coloured from its texture per pixel (`vs_mesh_textured`, `fs_mesh_textured`),
+//! as a viewer of the textured scan shows it. A benchmark and test aid, not a kiosk mode (behind
+//! the `reference` feature, which only the tests and benchmarks turn on; the kiosk's renderer
+//! compiles splat.wgsl alone): the mesh is uploaded at every call.
 
 use crate::{
     DEPTH_FORMAT, FrameUniforms, Gpu, RenderError, RenderSettings, frame_binding, frame_uniforms, read_back,
@@ -74,7 +75,13 @@ impl Mesh {
     }
 }
 
-/// Needs to be kept in sync with `MeshIn` in shaders/splat.wgsl.
+/// The mesh reference's shader: the splat shader's uniforms and shading, then its own entry points.
+const MESH_REFERENCE_WGSL: &str = concat!(
+    include_str!("../../../shaders/splat.wgsl"),
+    include_str!("../../../shaders/mesh_reference.wgsl")
+);
+
+/// Needs to be kept in sync with `MeshIn` in shaders/mesh_reference.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct MeshVertex {
@@ -83,7 +90,7 @@ struct MeshVertex {
     color: [u8; 4],
 }
 
-/// Needs to be kept in sync with `TexturedIn` in shaders/splat.wgsl.
+/// Needs to be kept in sync with `TexturedIn` in shaders/mesh_reference.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct TexturedVertex {
@@ -107,7 +114,10 @@ impl MeshRenderer {
     /// A mesh renderer drawing into textures of `format`.
     pub fn new(gpu: &Gpu, format: wgpu::TextureFormat) -> Self {
         let device = &gpu.device;
-        let module = crate::surface_shader(device);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("splat.wgsl + mesh_reference.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(MESH_REFERENCE_WGSL.into()),
+        });
         let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::FRAGMENT,
