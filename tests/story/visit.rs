@@ -330,7 +330,8 @@ fn a_z_up_model_starts_upright_and_stays_upright() {
     let d = demo();
     let (store, graph) = &d.models[0];
     let script = Script::new().wait(0.2).tap(1, 0.5, 0.86).wait(0.5).joystick(2, (0.2, 0.0), 1.5).wait(0.5);
-    for up in [glam::DVec3::Y, glam::DVec3::Z] {
+    // The two axes and a scan standing tilted in its file (exhibit.toml's `up = [x, y, z]`).
+    for up in [glam::DVec3::Y, glam::DVec3::Z, glam::DVec3::new(0.2, 1.0, -0.1).normalize()] {
         let refs = [ModelRef { store, graph: Some(graph), up, front: None }];
         let frames = run_session(&refs, &script.session(), &fast(), 1.0);
         let explored: Vec<_> = frames.iter().filter_map(|f| f.explore.as_ref()).collect();
@@ -341,6 +342,12 @@ fn a_z_up_model_starts_upright_and_stays_upright() {
         }
         let first = glam::DVec3::from_array(explored[0].up);
         assert!(first.dot(up) > 0.99, "up {up}: the exploration starts upright ({first})");
+        // The start view itself is level: it looks across the model's up, not down or up at it.
+        let start = kiosk_core::replay::start_camera(store, 0.8, up, None);
+        assert!(
+            start.forward().dot(up).abs() < 1e-12 && start.up.dot(up) > 1.0 - 1e-12,
+            "up {up}: {start:?}"
+        );
     }
 }
 
@@ -360,6 +367,8 @@ fn a_model_turned_to_its_front_is_first_seen_from_it() {
         (glam::DVec3::Y, glam::DVec3::NEG_Z),
         (glam::DVec3::Y, glam::DVec3::X),
         (glam::DVec3::Z, glam::DVec3::X),
+        // Any rotation: a tilted up and a front perpendicular to it.
+        (glam::DVec3::new(0.0, 0.96, 0.28), glam::DVec3::new(0.6, -0.224, 0.768)),
     ] {
         let from = first_view(up, Some(front));
         assert!(from.dot(front) > 0.99, "up {up}, front {front}: the visit starts looking at it from {from}");

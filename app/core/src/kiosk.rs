@@ -143,8 +143,8 @@ pub struct ModelRef<'a, B: AsRef<[u8]>> {
     pub store: &'a Store<B>,
     /// Its story, if any.
     pub graph: Option<&'a InfoGraph>,
-    /// The model's up axis (unit; scanners and photogrammetry often give Z up): the explorer's
-    /// start framing and IsoCam's up follow it.
+    /// The model's up direction (unit, any direction; scanners and photogrammetry often give Z
+    /// up): the explorer's start framing and IsoCam's up follow it.
     pub up: glam::DVec3,
     /// The side the start view looks at (exhibit.toml's `front`); `None`: the default.
     pub front: Option<glam::DVec3>,
