@@ -37,7 +37,7 @@ pub struct Project {
     /// The text of graph.xml as last read or written: saving writes over it, keeping what the
     /// loader could not read (see [`InfoGraph::to_xml_over`]).
     original: Option<String>,
-    /// How the model stands: its up axis and the side the kiosk shows first (`exhibit.toml`;
+    /// How the model stands: its up direction and the side the kiosk shows first (`exhibit.toml`;
     /// +Y up and the default front without one).
     pub pose: ModelPose,
 }

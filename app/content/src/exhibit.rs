@@ -196,7 +196,8 @@ impl ModelPose {
         let u = if up.is_finite() && (up.length_squared() - 1.0).abs() < 1e-12 {
             up
         } else {
-            up.try_normalize()?
+            // Scaled first, so that a long vector's squared length does not overflow.
+            (up / up.abs().max_element()).try_normalize()?
         };
         Some(UP_AXES.iter().map(|(_, a)| *a).find(|a| a.abs_diff_eq(u, 1e-12)).unwrap_or(u))
     }
@@ -251,12 +252,14 @@ pub fn model_pose(dir: &Path) -> anyhow::Result<ModelPose> {
                 Direction::Axis(name) => axis("front", &name)?,
                 Direction::Vector(v) => glam::DVec3::from_array(v),
             };
+            // Scaled, so that a long vector's length does not overflow.
+            let scaled = v / v.abs().max_element();
             anyhow::ensure!(
-                v.is_finite() && v.length() > 0.0,
+                scaled.is_finite() && scaled.length() > 0.0,
                 "{}: front = {v}: a direction, not zero or infinite",
                 path.display()
             );
-            Some(ModelPose::level(up, v).with_context(|| {
+            Some(ModelPose::level(up, scaled).with_context(|| {
                 format!(
                     "{}: front = {v}: along the up axis; the front is a side of the model",
                     path.display()
@@ -431,9 +434,14 @@ mod tests {
         std::fs::write(&file, tilted.to_toml()).expect("write");
         assert_eq!(model_pose(dir.path()).expect("read back"), tilted);
         assert!(ModelPose { up: glam::DVec3::Z, front: None }.to_toml().contains("up = \"z\""));
-        // A vector along an axis to within a file's decimals is that axis.
-        std::fs::write(&file, "up = [0.0, 0.0, 2.0]\n").expect("write");
+        // A vector along an axis to within a file's decimals is that axis; a long one is a
+        // direction all the same.
+        std::fs::write(&file, "up = [1e-14, 0.0, 1.0]\n").expect("write");
         assert_eq!(model_pose(dir.path()).expect("axis").up, glam::DVec3::Z);
+        std::fs::write(&file, "up = [0.0, 1e300, 1e300]\nfront = [1e300, 0.0, 0.0]\n").expect("write");
+        let pose = model_pose(dir.path()).expect("long vectors");
+        assert!(pose.up.abs_diff_eq(glam::DVec3::new(0.0, 1.0, 1.0).normalize(), 1e-12), "{pose:?}");
+        assert_eq!(pose.front, Some(glam::DVec3::X));
         for (text, says) in [("up = [0.0, 0.0, 0.0]\n", "not zero"), ("up = [nan, 1.0, 0.0]\n", "not zero")] {
             std::fs::write(&file, text).expect("write");
             let e = format!("{:#}", model_pose(dir.path()).expect_err(text));

@@ -232,7 +232,7 @@ impl AuthorApp {
         self.text = node.and_then(|n| n.text.0.get(&self.lang).cloned()).unwrap_or_default();
     }
 
-    /// Turns the model upright: its up axis is saved in `exhibit.toml` and the live view starts
+    /// Turns the model upright: its up direction is saved in `exhibit.toml` and the live view starts
     /// again from the upright framing.
     pub fn set_up(&mut self, up: glam::DVec3) {
         let r = self.project.set_up(up);
@@ -258,12 +258,12 @@ impl AuthorApp {
     /// Tilts the model by `degrees` as seen in the live view: `Lean` turns it on the screen
     /// (counter-clockwise for a positive angle), `Tip` tips its top away from the viewer. For a
     /// scan that stands crooked in its file: the pose is saved in `exhibit.toml`, and the live
-    /// view stays where it is, upright on the new up.
+    /// view turns with the pose about the point it looks at, so the model is seen tilted.
     pub fn tilt(&mut self, how: Tilt, degrees: f64) {
         let cam = self.camera();
         let forward = cam.forward();
-        // The up direction turned about the view direction toward the view's right makes the
-        // view, standing on it, turn the same way: the model is seen turned the other way.
+        // The pose turned about the view direction toward the view's right (or about the view's
+        // right, toward the viewer), and the view with it: the model is seen turned the other way.
         let axis = match how {
             Tilt::Lean => forward,
             Tilt::Tip => forward.cross(cam.up),
@@ -273,7 +273,13 @@ impl AuthorApp {
             return;
         }
         let up = self.project.pose.up;
-        self.live_view_from(Camera { up: kiosk_core::camera::orthonormal_up(forward, up, cam.up), ..cam });
+        let turn = glam::DQuat::from_axis_angle(axis.normalize(), degrees.to_radians());
+        let eye = cam.target + turn * (cam.eye - cam.target);
+        let turned = Camera { eye, up: turn * cam.up, ..cam };
+        self.live_view_from(Camera {
+            up: kiosk_core::camera::orthonormal_up(turned.forward(), up, turned.up),
+            ..turned
+        });
         let tilt = up.dot(self.nearest_axis()).clamp(-1.0, 1.0).acos().to_degrees();
         self.say(format!("model tilted: {tilt:.1}° off its axis; saved in exhibit.toml"));
     }
@@ -660,7 +666,15 @@ impl AuthorApp {
             ui.label("Model up");
             let current = self.project.pose.up;
             for (name, axis) in crate::UP_AXES {
-                if ui.selectable_label(current == axis, name).clicked() && current != axis {
+                let label = ui.selectable_label(current == axis, name);
+                let label = if current == axis {
+                    label
+                } else {
+                    label.on_hover_text(
+                        "Stands the model on this axis (a tilt made with Lean and Tip is undone)",
+                    )
+                };
+                if label.clicked() && current != axis {
                     self.set_up(axis);
                 }
             }
