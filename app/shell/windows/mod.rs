@@ -17,6 +17,7 @@ mod graphics;
 pub mod heap;
 mod paint;
 mod surface;
+mod visits;
 
 use anyhow::Context as _;
 use config::Config;
@@ -93,7 +94,7 @@ pub struct Exhibit {
     pub store: MappedStore,
     /// Its story.
     pub graph: Option<InfoGraph>,
-    /// Its model's up axis (`exhibit.toml`).
+    /// Its model's up direction (`exhibit.toml`).
     pub up: glam::DVec3,
     /// The side its start view looks at (`exhibit.toml`), if it says.
     pub front: Option<glam::DVec3>,
@@ -232,11 +233,8 @@ struct Running<'a> {
     rendered: u64,
     /// The last frame's submission, waited for before the next frame.
     in_flight: Option<wgpu::SubmissionIndex>,
-    /// Where the statistics and the visit log go.
-    state_dir: PathBuf,
-    /// Unix time of kiosk time 0, and the clock's speed (for the visits' wall times).
-    wall_origin: f64,
-    speed: f64,
+    /// The statistics and the visit log.
+    visits: visits::VisitLog,
 }
 
 impl<'a> App<'a> {
@@ -316,18 +314,7 @@ impl<'a> App<'a> {
             .map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref(), up: e.up, front: e.front })
             .collect();
         let mut kiosk = Kiosk::new(settings, models, 0.0);
-        let state_dir = cfg.state_dir();
-        for (i, ex) in exhibits.iter().enumerate() {
-            let name = kiosk_content::stats::exhibit_name(&ex.dir);
-            kiosk.set_stats(
-                i,
-                kiosk_content::stats::load_stats(&kiosk_content::stats::stats_path(&state_dir, &name)),
-            );
-        }
-        tracing::info!("visit statistics in {}", state_dir.display());
-        let wall_origin = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0.0, |d| d.as_secs_f64());
+        let visits = visits::VisitLog::open(cfg.state_dir(), self.opts.speed, exhibits, &mut kiosk);
         let narrator = kiosk_content::audio::Narrator::new(cfg.volume, self.opts.silent);
         let record = match &self.opts.record {
             Some(p) => {
@@ -355,7 +342,7 @@ impl<'a> App<'a> {
         }
         let input = drive::Input::new(self.opts.session.clone(), self.opts.run_for.is_some(), record);
         let soak = self.opts.run_for.map(|_| self.opts.warmup);
-        let probes = drive::Probes::new(trace, self.opts.screenshot_at.clone(), soak, &state_dir);
+        let probes = drive::Probes::new(trace, self.opts.screenshot_at.clone(), soak, visits.dir());
         Ok(Running {
             gfx,
             instance,
@@ -374,9 +361,7 @@ impl<'a> App<'a> {
             reported: HashSet::new(),
             rendered: 0,
             in_flight: None,
-            state_dir,
-            wall_origin,
-            speed: self.opts.speed.max(1e-3),
+            visits,
         })
     }
 }
@@ -569,47 +554,13 @@ impl Running<'_> {
     }
 
     /// Writes the visits that ended (and, `exit`, the one in progress) to the log, and the
-    /// statistics of the exhibits they explored. Only at a visit's end: not every frame.
+    /// statistics of the exhibits they explored ([`visits`]).
     fn persist(&mut self, exhibits: &[Exhibit], exit: bool) {
         if exit {
             self.kiosk.end_visit(self.sim_t, kiosk_core::stats::VisitEnd::Exit);
         }
-        let visits = self.kiosk.take_visits();
-        let mut touched = std::collections::BTreeSet::new();
-        for mut v in visits {
-            v.wall_start = Some(self.wall_origin + v.start / self.speed);
-            v.wall_end = Some(self.wall_origin + v.end / self.speed);
-            for m in &mut v.models {
-                m.exhibit = exhibits
-                    .get(m.model)
-                    .map(|e| kiosk_content::stats::exhibit_name(&e.dir))
-                    .unwrap_or_default();
-                touched.insert(m.model);
-            }
-            if let Err(e) = kiosk_content::stats::append_visit(
-                &self.state_dir,
-                &v,
-                kiosk_content::stats::LogLimits::default(),
-            ) {
-                self.report("visit log", &format!("{e:#}"));
-            }
-        }
-        if exit {
-            touched.extend(0..exhibits.len());
-        }
-        for i in touched {
-            let (Some(ex), Some(stats)) = (exhibits.get(i), self.kiosk.stats().get(i)) else { continue };
-            if stats.visits == 0 && stats.nodes.is_empty() {
-                continue;
-            }
-            let path = kiosk_content::stats::stats_path(
-                &self.state_dir,
-                &kiosk_content::stats::exhibit_name(&ex.dir),
-            );
-            if let Err(e) = kiosk_content::stats::save_stats(&path, stats) {
-                self.report("statistics", &format!("{e:#}"));
-            }
-        }
+        let reported = &mut self.reported;
+        self.visits.persist(&mut self.kiosk, exhibits, exit, &mut |what, e| report_once(reported, what, &e));
     }
 
     fn effect(&mut self, fx: &KioskEffect, exhibits: &[Exhibit]) {
