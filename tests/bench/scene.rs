@@ -3,7 +3,10 @@
 //! `-- --survey-only [--points N]`: the survey formats' readers alone, beside their decoders' bare
 //! loops, on one generated cloud written as LAS, LAZ, E57 and PLY (left in `target/bench/` for
 //! timing whole imports of each with `kiosk import`).
-//! `-- --texture-8k`: an 8192² texture on a 200 k-triangle mesh imported at one sample per texel.
+//! `-- --textured-only`: the textured reader alone by samples per texel (the textured box), and
+//! the Belweder exhibit's GLB read alone and imported whole.
+//! `-- --texture-8k`: an 8192² texture on a 200 k-triangle mesh (OBJ + MTL + PNG) read alone and
+//! imported at one sample per texel.
 //! `-- --queries-only A.kstore B.kstore …`: tables 2 and 3 only, on existing stores side by side.
 //! `-- --reference`: only the machine's reference figure (inflating the scan), printed with the
 //! tables too: the same fixed work in every run, to tell the machine's slow stretches from its fast.
@@ -174,11 +177,28 @@ fn main() -> anyhow::Result<()> {
     Ok(())
 }
 
-/// How long this machine takes, now, to inflate the scan's gzip stream (one thread): the same
-/// fixed work in every run, printed beside the tables so that runs in the machine's slow and fast
-/// stretches can be told apart.
-/// The textured-mesh reader alone (no build): samples per second by samples per texel, on the
-/// textured box (`tests/data/formats`).
+/// The reader alone (no build): `path` read `runs` times into a sink that counts; its samples and
+/// the median seconds.
+fn reader_alone(path: &Path, opts: &ReadOptions, runs: usize) -> anyhow::Result<(u64, f64)> {
+    let mut times = Vec::new();
+    let mut n = 0u64;
+    for _ in 0..runs {
+        n = 0;
+        let start = Instant::now();
+        let mut count = |_: InputPoint| -> Result<(), std::convert::Infallible> {
+            n += 1;
+            Ok(())
+        };
+        let report = source::read_file(path, opts, &mut count)?;
+        times.push(start.elapsed().as_secs_f64());
+        anyhow::ensure!(report.points == n, "{} points reported, {n} received", report.points);
+    }
+    Ok((n, median(times)))
+}
+
+/// Textured meshes: the reader alone by samples per texel on the textured box
+/// (`tests/data/formats`), then a real textured scan, the Belweder exhibit's GLB, read alone and
+/// imported whole (3 builds, each in a child process) at the default density.
 fn textured_reader() -> anyhow::Result<()> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/formats/box-textured/BoxTextured.glb");
     println!("\n## Textured reader alone ({}, median of 3)", path.display());
@@ -186,21 +206,21 @@ fn textured_reader() -> anyhow::Result<()> {
     println!("|---|---|---|---|");
     for density in [0.25f32, 1.0, 4.0, 16.0] {
         let opts = ReadOptions { texel_density: density, ..Default::default() };
-        let mut times = Vec::new();
-        let mut n = 0u64;
-        for _ in 0..3 {
-            n = 0;
-            let start = Instant::now();
-            let mut count = |_: InputPoint| -> Result<(), std::convert::Infallible> {
-                n += 1;
-                Ok(())
-            };
-            let report = source::read_file(&path, &opts, &mut count)?;
-            times.push(start.elapsed().as_secs_f64());
-            anyhow::ensure!(report.points == n, "{} points reported, {n} received", report.points);
-        }
-        let s = median(times);
+        let (n, s) = reader_alone(&path, &opts, 3)?;
         println!("| {density} | {n} | {s:.3} | {:.1} |", n as f64 / s / 1e6);
+    }
+    let glb = Path::new(env!("CARGO_MANIFEST_DIR")).join("content/belweder/belweder-ot-1782.glb");
+    let (n, s) = reader_alone(&glb, &ReadOptions::default(), 3)?;
+    println!("\n## A textured scan: {}", glb.display());
+    println!("reader alone, median of 3: {n} samples in {s:.3} s, {:.2} M samples/s", n as f64 / s / 1e6);
+    println!(
+        "| input | samples | seconds | samples/s | peak RSS MB | nodes | levels | store MB | s: read · distribute · merge · order · estimate · nodes · finish |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let out = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench/belweder.kstore");
+    std::fs::create_dir_all(out.parent().unwrap_or(Path::new(".")))?;
+    for _ in 0..3 {
+        child(&format!("scan:{}", glb.display()), BuildParams::default().node_points, &out, None)?;
     }
     Ok(())
 }
@@ -254,10 +274,9 @@ fn texture_8k() -> anyhow::Result<()> {
         }
     }
     w.into_inner().map_err(std::io::IntoInnerError::into_error)?.sync_all()?;
-    println!(
-        "\n## An 8192² texture on {} triangles, one sample per texel (`kiosk import` in a child process)",
-        2 * (GRID - 1) * (GRID - 1)
-    );
+    println!("\n## An 8192² texture on {} triangles, one sample per texel", 2 * (GRID - 1) * (GRID - 1));
+    let (n, s) = reader_alone(&obj, &ReadOptions::default(), 1)?;
+    println!("reader alone: {n} samples in {s:.2} s, {:.2} M samples/s", n as f64 / s / 1e6);
     println!(
         "| input | samples | seconds | samples/s | peak RSS MB | nodes | levels | store MB | s: read · distribute · merge · order · estimate · nodes · finish |"
     );
@@ -274,6 +293,9 @@ fn texture_8k() -> anyhow::Result<()> {
 /// Points of the survey cloud unless `--points` says otherwise.
 const SURVEY_POINTS: u64 = 5_000_000;
 
+/// How long this machine takes, now, to inflate the scan's gzip stream (one thread): the same
+/// fixed work in every run, printed beside the tables so that runs in the machine's slow and fast
+/// stretches can be told apart.
 fn inflate_ms(scan: &Path) -> anyhow::Result<f64> {
     let mut ms: Vec<f64> = (0..5)
         .map(|_| {
