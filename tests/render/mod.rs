@@ -667,9 +667,15 @@ fn drawing_frames_does_not_grow_the_heap() {
     }
 }
 
-/// Draws the bunny 40 times in each mode after a warm-up and checks the heap in use (allocated
-/// bytes, which fragmentation does not change) stays within 3 MB: with the old shader, the 40
-/// blended frames took 23 MB.
+/// Draws the bunny in each mode, after a warm-up, in three windows of 30 frames each, and checks
+/// the heap in use (allocated bytes, which fragmentation does not change) between windows: with
+/// the old shader, every 40 blended frames took 23 MB. The heap is not flat even without a leak:
+/// the driver (or a layer under it) takes about 22 MB once, on a quiet machine by the second
+/// frame, on a busy one or a single core much later, after the heap has looked settled for many
+/// frames; and a block of about 22 MB comes and goes between frames. So each window's figure is
+/// its lowest heap after a frame (a passing block does not count), and the check is that one of
+/// the two steps between windows grew it by less than 3 MB: a one-time allocation is in one step
+/// at most, a leak grows both.
 fn heap_growth_over_frames() {
     let (gpu, mut renderer) = kiosk_content::snapshot::offscreen()
         .unwrap_or_else(|e| panic!("no GPU adapter: {e:#}. Run .ci/setup (installs lavapipe)"));
@@ -682,10 +688,8 @@ fn heap_growth_over_frames() {
             kiosk_content::snapshot::snapshot(&gpu, &mut renderer, store, &camera, size, 1.0, &settings)
                 .unwrap_or_else(|e| panic!("{e:#}"))
         };
-        // Warm up until the heap settles: lavapipe compiles its pipelines on threads of its own,
-        // later when the machine is busy (a run beside the other tests once measured 22 MB
-        // taken during the 40 frames, after 5 warm-up frames). A leak never settles: after 20
-        // rounds the 40 frames are measured anyway.
+        // Warm up until the heap settles (the pipelines compiled, the first frames' buffers
+        // made). A leak never settles: after 20 rounds the frames are measured anyway.
         let in_use = || kiosk::windows::heap::in_use_kb().expect("glibc's heap counters");
         let mut last = in_use();
         for _ in 0..20 {
@@ -699,13 +703,21 @@ fn heap_growth_over_frames() {
                 break;
             }
         }
-        let before = in_use();
-        for _ in 0..40 {
-            frame();
-        }
-        let after = in_use();
-        let grown = after.saturating_sub(before);
-        println!("{name}: heap in use {before} kB → {after} kB over 40 frames");
-        assert!(grown < 3 * 1024, "{name}: 40 frames grew the heap by {grown} kB ({before} → {after} kB)");
+        let mut lowest = || {
+            (0..30)
+                .map(|_| {
+                    frame();
+                    in_use()
+                })
+                .min()
+                .unwrap_or(0)
+        };
+        let windows = [lowest(), lowest(), lowest()];
+        println!("{name}: heap in use, lowest of each window of 30 frames: {windows:?} kB");
+        let grown = windows.windows(2).map(|w| w[1].saturating_sub(w[0])).min().unwrap_or(0);
+        assert!(
+            grown < 3 * 1024,
+            "{name}: the heap grew from window to window, at least {grown} kB a step ({windows:?} kB)"
+        );
     }
 }
