@@ -37,10 +37,19 @@ fn main() -> anyhow::Result<()> {
         &kiosk_content::stats::exhibit_name(&cli.exhibit),
     );
     app.visitor_stats = kiosk_content::stats::load_stats(&stats);
+    // The window's device as the kiosk's: no shader debug info, which a debug build would ask
+    // for by default and which Debian 12's Vulkan validation layers reject (they predate WGSL as
+    // a SPIR-V source language) with an error at every pipeline; validation as WGPU_* says.
+    let mut setup = eframe::egui_wgpu::WgpuSetupCreateNew::without_display_handle();
+    setup.instance_descriptor.flags = eframe::wgpu::InstanceFlags::empty().with_env();
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
             .with_inner_size([1400.0, 900.0])
             .with_title("IsoKiosk author"),
+        wgpu_options: eframe::egui_wgpu::WgpuConfiguration {
+            wgpu_setup: eframe::egui_wgpu::WgpuSetup::CreateNew(setup),
+            ..Default::default()
+        },
         ..Default::default()
     };
     eframe::run_ui_native("IsoKiosk author", options, move |ui, _frame| app.ui(ui))
