@@ -40,15 +40,14 @@ impl std::str::FromStr for ControllerKind {
 }
 
 /// The side of a model the start view looks at when its exhibit does not say: +Z (the view
-/// looks along −Z), or −Y for a model standing on Z; each levelled to `up` (perpendicular to it,
-/// so that the start view is level for a model standing tilted too), whichever of the two stays
-/// longer when levelled (+Z on a tie: a model standing on X).
+/// looks along −Z), or −Y for a model standing on Z (Z the axis nearest its up), levelled to `up`
+/// (perpendicular to it, so that the start view is level for a model standing tilted too; the six
+/// axes keep exactly these fronts, and a small tilt turns the front by as much).
 pub fn default_front(up: DVec3) -> DVec3 {
     let up = up.try_normalize().unwrap_or(DVec3::Y);
-    let level = |f: DVec3| f - up * f.dot(up);
-    let (z, neg_y) = (level(DVec3::Z), level(DVec3::NEG_Y));
-    let f = if z.length_squared() + 1e-12 >= neg_y.length_squared() { z } else { neg_y };
-    f.try_normalize().unwrap_or_else(|| super::any_perpendicular(up))
+    let on_z = up.z.abs() > up.x.abs().max(up.y.abs());
+    let f = if on_z { DVec3::NEG_Y } else { DVec3::Z };
+    (f - up * f.dot(up)).try_normalize().unwrap_or_else(|| super::any_perpendicular(up))
 }
 
 /// The camera the kiosk starts with: the whole model framed from its `front` side (unit,
@@ -114,16 +113,31 @@ mod tests {
         ] {
             assert_eq!(default_front(up), front, "up {up}");
         }
-        // A tilted up: the front is perpendicular to it (a level start view) and near the axis
-        // front, and a 1° turn of the up turns it by about 1° (no jump).
-        for tilt in [1.0f64, 10.0, 30.0] {
-            for axis in [DVec3::X, DVec3::Z, DVec3::new(1.0, 0.0, 1.0) * std::f64::consts::FRAC_1_SQRT_2] {
-                let up = glam::DQuat::from_axis_angle(axis, tilt.to_radians()) * DVec3::Y;
-                let f = default_front(up);
-                assert!(f.dot(up).abs() < 1e-12 && (f.length() - 1.0).abs() < 1e-12, "up {up}: {f}");
-                assert!(f.dot(DVec3::Z) > tilt.to_radians().cos() - 1e-9, "up {up}: {f}");
-                let next = default_front(glam::DQuat::from_axis_angle(axis, 1f64.to_radians()) * up);
-                assert!(f.angle_between(next) < 1.01f64.to_radians(), "up {up}: {f} → {next}");
+        // An up tilted from any of the six axes: the front is perpendicular to it (a level start
+        // view), within the tilt of that axis's front, and a 1° turn of the up turns it by at
+        // most about 1° (no jump, also from X toward Z).
+        let diagonal = DVec3::new(1.0, 1.0, 1.0) * (1.0 / 3f64.sqrt());
+        for (axis_up, axis_front) in [
+            (DVec3::Y, DVec3::Z),
+            (DVec3::NEG_Y, DVec3::Z),
+            (DVec3::X, DVec3::Z),
+            (DVec3::NEG_X, DVec3::Z),
+            (DVec3::Z, DVec3::NEG_Y),
+            (DVec3::NEG_Z, DVec3::NEG_Y),
+        ] {
+            for tilt in [0.1f64, 1.0, 10.0, 30.0] {
+                for about in [DVec3::X, DVec3::Y, DVec3::Z, diagonal] {
+                    let turn = glam::DQuat::from_axis_angle(about, tilt.to_radians());
+                    let up = turn * axis_up;
+                    if up.angle_between(axis_up) < 1e-9 {
+                        continue;
+                    }
+                    let f = default_front(up);
+                    assert!(f.dot(up).abs() < 1e-12 && (f.length() - 1.0).abs() < 1e-12, "up {up}: {f}");
+                    assert!(f.angle_between(axis_front) <= tilt.to_radians() + 1e-9, "up {up}: {f}");
+                    let next = default_front(glam::DQuat::from_axis_angle(about, 1f64.to_radians()) * up);
+                    assert!(f.angle_between(next) < 1.01f64.to_radians(), "up {up}: {f} → {next}");
+                }
             }
         }
     }
