@@ -438,6 +438,8 @@ mod tests {
         // direction all the same.
         std::fs::write(&file, "up = [1e-14, 0.0, 1.0]\n").expect("write");
         assert_eq!(model_pose(dir.path()).expect("axis").up, glam::DVec3::Z);
+        std::fs::write(&file, "up = [0.0, 0.0, 2.0]\n").expect("write");
+        assert_eq!(model_pose(dir.path()).expect("axis").up, glam::DVec3::Z);
         std::fs::write(&file, "up = [0.0, 1e300, 1e300]\nfront = [1e300, 0.0, 0.0]\n").expect("write");
         let pose = model_pose(dir.path()).expect("long vectors");
         assert!(pose.up.abs_diff_eq(glam::DVec3::new(0.0, 1.0, 1.0).normalize(), 1e-12), "{pose:?}");
