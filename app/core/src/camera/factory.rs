@@ -103,28 +103,22 @@ mod tests {
     #[test]
     fn the_default_front_is_level_for_every_up() {
         // The axes keep their fronts exactly: +Z, or −Y for a model standing on ±Z.
-        for (up, front) in [
+        let axes = [
             (DVec3::Y, DVec3::Z),
             (DVec3::NEG_Y, DVec3::Z),
             (DVec3::X, DVec3::Z),
             (DVec3::NEG_X, DVec3::Z),
             (DVec3::Z, DVec3::NEG_Y),
             (DVec3::NEG_Z, DVec3::NEG_Y),
-        ] {
+        ];
+        for (up, front) in axes {
             assert_eq!(default_front(up), front, "up {up}");
         }
         // An up tilted from any of the six axes: the front is perpendicular to it (a level start
         // view), within the tilt of that axis's front, and a 1° turn of the up turns it by at
         // most about 1° (no jump, also from X toward Z).
         let diagonal = DVec3::new(1.0, 1.0, 1.0) * (1.0 / 3f64.sqrt());
-        for (axis_up, axis_front) in [
-            (DVec3::Y, DVec3::Z),
-            (DVec3::NEG_Y, DVec3::Z),
-            (DVec3::X, DVec3::Z),
-            (DVec3::NEG_X, DVec3::Z),
-            (DVec3::Z, DVec3::NEG_Y),
-            (DVec3::NEG_Z, DVec3::NEG_Y),
-        ] {
+        for (axis_up, axis_front) in axes {
             for tilt in [0.1f64, 1.0, 10.0, 30.0] {
                 for about in [DVec3::X, DVec3::Y, DVec3::Z, diagonal] {
                     let turn = glam::DQuat::from_axis_angle(about, tilt.to_radians());
