@@ -364,14 +364,16 @@ impl Project {
 
     /// Tilts the model: turns its whole pose (up and front) by `angle` radians about `axis`, for a
     /// scan that stands a few degrees off an axis in its file (the authoring tool turns it about
-    /// the live view's direction or its horizontal). Written to `exhibit.toml` at once.
-    pub fn tilt(&mut self, axis: DVec3, angle: f64) -> anyhow::Result<()> {
+    /// the live view's direction or its horizontal). Written to `exhibit.toml` at once; the turn
+    /// is returned (for a view to turn with the pose).
+    pub fn tilt(&mut self, axis: DVec3, angle: f64) -> anyhow::Result<glam::DQuat> {
         let axis = axis.try_normalize().with_context(|| format!("tilt axis {axis}: not a direction"))?;
         anyhow::ensure!(angle.is_finite(), "tilt angle {angle}: not a number");
         let turn = glam::DQuat::from_axis_angle(axis, angle);
         let up = ModelPose::unit_up(turn * self.pose.up).context("the tilted up")?;
         let front = self.pose.front.map(|f| turn * f).and_then(|f| ModelPose::level(up, f));
-        self.write_pose(ModelPose { up, front })
+        self.write_pose(ModelPose { up, front })?;
+        Ok(turn)
     }
 
     /// Turns the model about its up axis: the kiosk's start view will look at the side `front`

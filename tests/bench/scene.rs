@@ -105,11 +105,7 @@ fn main() -> anyhow::Result<()> {
 
     // 1. Build.
     println!("\n## Build (release, default M = {})", BuildParams::default().node_points);
-    println!(
-        "| input | points | seconds | points/s | peak RSS MB | nodes | levels | store MB | \
-         s: read · distribute · merge · order · estimate · nodes · finish |"
-    );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    build_table_header("points");
     let scan_store = out_dir.join("scan.kstore");
     // A quarter of a second: its figure is the median of several builds (each row printed, so
     // that the machine's swings around it show), as the queries' figures are medians. Back to
@@ -213,10 +209,7 @@ fn textured_reader() -> anyhow::Result<()> {
     let (n, s) = reader_alone(&glb, &ReadOptions::default(), 3)?;
     println!("\n## A textured scan: {}", glb.display());
     println!("reader alone, median of 3: {n} samples in {s:.3} s, {:.2} M samples/s", n as f64 / s / 1e6);
-    println!(
-        "| input | samples | seconds | samples/s | peak RSS MB | nodes | levels | store MB | s: read · distribute · merge · order · estimate · nodes · finish |"
-    );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    build_table_header("samples");
     let out = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench/belweder.kstore");
     std::fs::create_dir_all(out.parent().unwrap_or(Path::new(".")))?;
     for _ in 0..3 {
@@ -277,10 +270,7 @@ fn texture_8k() -> anyhow::Result<()> {
     println!("\n## An 8192² texture on {} triangles, one sample per texel", 2 * (GRID - 1) * (GRID - 1));
     let (n, s) = reader_alone(&obj, &ReadOptions::default(), 1)?;
     println!("reader alone: {n} samples in {s:.2} s, {:.2} M samples/s", n as f64 / s / 1e6);
-    println!(
-        "| input | samples | seconds | samples/s | peak RSS MB | nodes | levels | store MB | s: read · distribute · merge · order · estimate · nodes · finish |"
-    );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    build_table_header("samples");
     child(
         &format!("scan:{}", obj.display()),
         BuildParams::default().node_points,
@@ -335,6 +325,15 @@ fn child(input: &str, m: usize, out: &Path, spacing_stride: Option<usize>) -> an
     let points = cell(2).parse().with_context(|| format!("points of the row {row:?}"))?;
     let secs = cell(3).parse().with_context(|| format!("seconds of the row {row:?}"))?;
     Ok((points, secs))
+}
+
+/// The header of a table of builds ([`child`]'s rows), counting `what` (points or samples).
+fn build_table_header(what: &str) {
+    println!(
+        "| input | {what} | seconds | {what}/s | peak RSS MB | nodes | levels | store MB | \
+         s: read · distribute · merge · order · estimate · nodes · finish |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
 }
 
 fn peak_rss_mb() -> f64 {

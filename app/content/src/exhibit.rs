@@ -174,7 +174,7 @@ impl ModelPose {
     /// `exhibit.toml`'s text for this pose (an axis by its name, another direction as a vector
     /// that reads back exactly).
     pub fn to_toml(&self) -> String {
-        let direction = |d: glam::DVec3| match UP_AXES.iter().find(|(_, a)| a.abs_diff_eq(d, 1e-12)) {
+        let direction = |d: glam::DVec3| match named_axis(d) {
             Some((n, _)) => format!("\"{n}\""),
             None => format!("[{}, {}, {}]", d.x, d.y, d.z),
         };
@@ -196,10 +196,9 @@ impl ModelPose {
         let u = if up.is_finite() && (up.length_squared() - 1.0).abs() < 1e-12 {
             up
         } else {
-            // Scaled first, so that a long vector's squared length does not overflow.
-            (up / up.abs().max_element()).try_normalize()?
+            scaled(up).try_normalize()?
         };
-        Some(UP_AXES.iter().map(|(_, a)| *a).find(|a| a.abs_diff_eq(u, 1e-12)).unwrap_or(u))
+        Some(named_axis(u).map_or(u, |(_, a)| a))
     }
 
     /// `front` made perpendicular to `up` and unit; `None` when it is (nearly) along `up`.
@@ -252,8 +251,7 @@ pub fn model_pose(dir: &Path) -> anyhow::Result<ModelPose> {
                 Direction::Axis(name) => axis("front", &name)?,
                 Direction::Vector(v) => glam::DVec3::from_array(v),
             };
-            // Scaled, so that a long vector's length does not overflow.
-            let scaled = v / v.abs().max_element();
+            let scaled = scaled(v);
             anyhow::ensure!(
                 scaled.is_finite() && scaled.length() > 0.0,
                 "{}: front = {v}: a direction, not zero or infinite",
@@ -268,6 +266,17 @@ pub fn model_pose(dir: &Path) -> anyhow::Result<ModelPose> {
         }
     };
     Ok(ModelPose { up, front })
+}
+
+/// The named axis `d` is, to within rounding.
+fn named_axis(d: glam::DVec3) -> Option<(&'static str, glam::DVec3)> {
+    UP_AXES.iter().copied().find(|(_, a)| a.abs_diff_eq(d, 1e-12))
+}
+
+/// `v` divided by its largest component, so that a long vector's length does not overflow (zero
+/// and non-finite vectors come out non-finite).
+fn scaled(v: glam::DVec3) -> glam::DVec3 {
+    v / v.abs().max_element()
 }
 
 /// The up direction of an exhibit's model ([`model_pose`]'s `up`).

@@ -75,11 +75,9 @@ impl Mesh {
     }
 }
 
-/// The mesh reference's shader: the splat shader's uniforms and shading, then its own entry points.
-const MESH_REFERENCE_WGSL: &str = concat!(
-    include_str!("../../../shaders/splat.wgsl"),
-    include_str!("../../../shaders/mesh_reference.wgsl")
-);
+/// The mesh reference's own entry points, compiled after the splat shader ([`crate::SPLAT_WGSL`]),
+/// whose uniforms and shading they use.
+const MESH_REFERENCE_WGSL: &str = include_str!("../../../shaders/mesh_reference.wgsl");
 
 /// Needs to be kept in sync with `MeshIn` in shaders/mesh_reference.wgsl.
 #[repr(C)]
@@ -116,7 +114,7 @@ impl MeshRenderer {
         let device = &gpu.device;
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("splat.wgsl + mesh_reference.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(MESH_REFERENCE_WGSL.into()),
+            source: wgpu::ShaderSource::Wgsl([crate::SPLAT_WGSL, MESH_REFERENCE_WGSL].concat().into()),
         });
         let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
             binding,

@@ -269,11 +269,8 @@ impl AuthorApp {
             Tilt::Tip => forward.cross(cam.up),
         };
         let r = self.project.tilt(axis, degrees.to_radians());
-        if self.report("model tilt", r).is_none() {
-            return;
-        }
+        let Some(turn) = self.report("model tilt", r) else { return };
         let up = self.project.pose.up;
-        let turn = glam::DQuat::from_axis_angle(axis.normalize(), degrees.to_radians());
         let eye = cam.target + turn * (cam.eye - cam.target);
         let turned = Camera { eye, up: turn * cam.up, ..cam };
         self.live_view_from(Camera {
@@ -678,20 +675,17 @@ impl AuthorApp {
                     self.set_up(axis);
                 }
             }
-            let step = 1.0;
             let hover =
                 "For a scan that stands crooked in its file: tilts the model 1° as seen in the live view";
-            if ui.button("Lean left").on_hover_text(hover).clicked() {
-                self.tilt(Tilt::Lean, step);
-            }
-            if ui.button("Lean right").on_hover_text(hover).clicked() {
-                self.tilt(Tilt::Lean, -step);
-            }
-            if ui.button("Tip back").on_hover_text(hover).clicked() {
-                self.tilt(Tilt::Tip, step);
-            }
-            if ui.button("Tip forward").on_hover_text(hover).clicked() {
-                self.tilt(Tilt::Tip, -step);
+            for (label, how, degrees) in [
+                ("Lean left", Tilt::Lean, 1.0),
+                ("Lean right", Tilt::Lean, -1.0),
+                ("Tip back", Tilt::Tip, 1.0),
+                ("Tip forward", Tilt::Tip, -1.0),
+            ] {
+                if ui.button(label).on_hover_text(hover).clicked() {
+                    self.tilt(how, degrees);
+                }
             }
             if ui
                 .button("Front from view")

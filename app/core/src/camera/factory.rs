@@ -47,7 +47,7 @@ pub fn default_front(up: DVec3) -> DVec3 {
     let up = up.try_normalize().unwrap_or(DVec3::Y);
     let on_z = up.z.abs() > up.x.abs().max(up.y.abs());
     let f = if on_z { DVec3::NEG_Y } else { DVec3::Z };
-    (f - up * f.dot(up)).try_normalize().unwrap_or_else(|| super::any_perpendicular(up))
+    super::orthonormal_up(up, f, f)
 }
 
 /// The camera the kiosk starts with: the whole model framed from its `front` side (unit,
