@@ -435,6 +435,22 @@ fn a_scan_turned_any_way_starts_upright_when_its_exhibit_says_how() {
     );
     let s = ssim(&expected, &start);
     assert!(s > 0.98, "SSIM {s}: the turned scan does not start as the scan seen the same way");
+    // And it is framed as the scan as delivered: by the box of its samples in the upright frame,
+    // not by the store's box, which is larger for a turned model.
+    let scanned = kiosk_content::exhibit::open_model_in(&standing, &cache).expect("the store as scanned");
+    let (center, radius) = kiosk_core::camera::upright_bounds(&store, up, front);
+    let half = |b: kiosk_core::Aabb| f64::from(b.diagonal()) * 0.5;
+    let (want, loose) = (half(scanned.bbox()), half(store.bbox()));
+    assert!((radius / want - 1.0).abs() < 0.002, "framed radius {radius}, the scan's {want}");
+    assert!(loose / want > 1.05, "the turned store's box ({loose}) is as tight as the scan's ({want})");
+    let scanned_center = turn * scanned.to_model(scanned.bbox().center());
+    assert!(
+        center.distance(scanned_center) < 0.002 * want,
+        "framed about {center}, the scan's {scanned_center}"
+    );
+    let scanned_start = common::snapshot(&standing, &standing.join("start.png"), &cache, &size);
+    let s = ssim(&scanned_start, &start);
+    assert!(s > 0.98, "SSIM {s}: the turned scan is not framed as the scan as delivered");
     // Without its exhibit.toml the turned scan starts askew: the check can tell.
     let unsaid = ply_exhibit(dir.path(), "turned-unsaid", &turned, None);
     let askew = common::snapshot(&unsaid, &unsaid.join("start.png"), &cache, &size);

@@ -2,7 +2,8 @@
 //! here.
 
 use super::{Acevit, AcevitSettings, Camera, Controller, IsoCam, IsoCamSettings, SceneRef, Trackball};
-use crate::scene::Store;
+use crate::scene::store::NONE;
+use crate::scene::{NodeId, Store};
 use glam::DVec3;
 
 /// Which controller a replay uses.
@@ -51,13 +52,65 @@ pub fn default_front(up: DVec3) -> DVec3 {
 }
 
 /// The camera the kiosk starts with: the whole model framed from its `front` side (unit,
-/// perpendicular to `up`; `None`: [`default_front`]), upright.
+/// perpendicular to `up`; `None`: [`default_front`]), upright, its bounding sphere being the one
+/// of [`upright_bounds`].
 pub fn start_camera<B: AsRef<[u8]>>(store: &Store<B>, fov_y: f64, up: DVec3, front: Option<DVec3>) -> Camera {
-    let center = store.to_model(store.bbox().center());
-    let radius = f64::from(store.bbox().diagonal()) * 0.5;
     let from =
         front.map(|f| f - up * f.dot(up)).and_then(DVec3::try_normalize).unwrap_or_else(|| default_front(up));
+    let (center, radius) = upright_bounds(store, up, from);
     Camera::framing(center, radius.max(f64::MIN_POSITIVE), from, up, fov_y)
+}
+
+/// The centre and half diagonal of the model's bounding box in its upright frame (`up`, `front`
+/// and their cross product; both unit and perpendicular), in model coordinates. When that frame's
+/// axes are the file's (a model standing on an axis, seen from an axis), the box is the store's
+/// own. A model turned any other way would be framed loosely by the store's box (the box of a
+/// turned box is larger), so its box is found in the upright frame: its samples' extremes along
+/// each of the frame's axes, both ways.
+pub fn upright_bounds<B: AsRef<[u8]>>(store: &Store<B>, up: DVec3, front: DVec3) -> (DVec3, f64) {
+    let b = store.bbox();
+    let stored = (store.to_model(b.center()), f64::from(b.diagonal()) * 0.5);
+    let on_axes = [up, front].iter().all(|v| v.to_array().iter().filter(|c| **c != 0.0).count() == 1);
+    if on_axes {
+        return stored;
+    }
+    // Relative to the store's box centre, so that a store far from its origin keeps its precision.
+    let mid = b.center().as_dvec3();
+    let frame = [up.cross(front), up, front];
+    let hi = frame.map(|axis| farthest(store, axis, mid));
+    let lo = frame.map(|axis| -farthest(store, -axis, mid));
+    let (lo, hi) = (DVec3::from_array(lo), DVec3::from_array(hi));
+    if !(lo.is_finite() && hi.is_finite()) {
+        return stored;
+    }
+    let c = (lo + hi) * 0.5;
+    (stored.0 + frame[0] * c.x + frame[1] * c.y + frame[2] * c.z, (hi - lo).length() * 0.5)
+}
+
+/// The largest `dir · (p − mid)` over the store's samples p (local coordinates), exactly, by
+/// branch and bound: the node whose box reaches farthest along `dir` is opened first, and the
+/// search stops when no box left reaches beyond the farthest sample found (a few nodes from the
+/// root to a leaf, whatever the size of the model).
+fn farthest<B: AsRef<[u8]>>(store: &Store<B>, dir: DVec3, mid: DVec3) -> f64 {
+    let reach = |id: NodeId| {
+        let b = store.node(id).bbox();
+        (0..3)
+            .map(|a| (dir[a] * (f64::from(b.min[a]) - mid[a])).max(dir[a] * (f64::from(b.max[a]) - mid[a])))
+            .sum()
+    };
+    let mut best = f64::NEG_INFINITY;
+    let mut open: Vec<(f64, NodeId)> = vec![(reach(store.root()), store.root())];
+    while let Some(i) = (0..open.len()).max_by(|&a, &b| open[a].0.total_cmp(&open[b].0)) {
+        let (bound, id) = open.swap_remove(i);
+        if bound <= best {
+            break;
+        }
+        for s in store.splats(id) {
+            best = best.max(dir.dot(s.position().as_dvec3() - mid));
+        }
+        open.extend(store.node(id).children.iter().filter(|&&c| c != NONE).map(|&c| (reach(c), c)));
+    }
+    best
 }
 
 /// [`start_camera`] from the default front.

@@ -13,7 +13,9 @@ mod isocam;
 mod trackball;
 
 pub use acevit::{Acevit, AcevitSettings};
-pub use factory::{ControllerKind, default_front, initial_camera, make_controller, start_camera};
+pub use factory::{
+    ControllerKind, default_front, initial_camera, make_controller, start_camera, upright_bounds,
+};
 pub use isocam::{IsoCam, IsoCamSettings, StepStats, exceeds_tilt_limit};
 pub use trackball::Trackball;
 
