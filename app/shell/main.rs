@@ -132,9 +132,10 @@ enum Command {
         /// The store to write.
         #[arg(short, long)]
         output: PathBuf,
-        /// Target samples per node (M).
-        #[arg(long, default_value_t = kiosk_import::BuildParams::default().node_points)]
-        node_points: usize,
+        /// Target samples per node (M), 16 to 1 000 000.
+        #[arg(long, default_value_t = kiosk_import::BuildParams::default().node_points as u32,
+              value_parser = clap::value_parser!(u32).range(16..=1_000_000))]
+        node_points: u32,
         /// Speed against accuracy of the splat radii: samples that come with a normal but no
         /// spacing (point clouds; a mesh's faces give theirs) search their nearest neighbours
         /// for a spacing one in N per group of 8–15 neighbouring samples; the others take the
@@ -265,7 +266,7 @@ fn main() -> anyhow::Result<()> {
             let mut opts = ImportOptions { progress: !quiet, ..Default::default() };
             opts.read.texel_density = texel_density;
             opts.read.fill_plain_meshes = !vertices_only;
-            opts.build.node_points = node_points;
+            opts.build.node_points = node_points as usize;
             opts.build.spacing_stride = spacing_stride as usize;
             opts.read.drop_invalid = drop_invalid;
             let report = import(&scan, &output, &opts).inspect_err(|e| {

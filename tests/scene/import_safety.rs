@@ -142,3 +142,68 @@ fn a_scan_with_a_non_finite_coordinate_names_the_row_and_the_flag_that_skips_it(
         .expect("run kiosk");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+#[test]
+fn import_errors_say_each_cause_once_and_name_the_file_and_the_place() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let formats = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/formats");
+    let write = |name: &str, bytes: &[u8]| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, bytes).expect("write");
+        p
+    };
+    let laz = std::fs::read(formats.join("simple.laz")).expect("laz");
+    let mut huge = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+        property float z\nend_header\n"
+        .to_vec();
+    huge.extend_from_slice(b"-1e30 0 0\n1e30 0 0\n0 1 0\n");
+    let cases = [
+        (dir.path().join("missing.ply"), "No such file or directory"),
+        (
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz/glb-header-length-1.glb"),
+            "GLB header: length 2 is shorter than the 12-byte header",
+        ),
+        (write("cut.laz", &laz[..laz.len() / 2]), "LAS: the file ends before the data its header announces"),
+        (formats.join("empty.e57"), "E57: the file holds no point cloud"),
+        (formats.join("InvalidCVHeader.e57"), "E57: scan 1: Invalid E57 content"),
+        (
+            write("ahead.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"),
+            "line 4: a face refers to vertex 9 but the file has 3 vertices (counted from 1)",
+        ),
+        (
+            write("zero.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n"),
+            "line 4: vertex index 0 refers before the first vertex",
+        ),
+        (
+            write("huge.ply", &huge),
+            "the samples reach from (-1e30, 0, 0) to (1e30, 1, 0); a store holds a model",
+        ),
+    ];
+    for (scan, expected) in &cases {
+        let out = dir.path().join("out.kstore");
+        let o =
+            kiosk().args(["import", "--quiet"]).arg(scan).arg("-o").arg(&out).output().expect("run kiosk");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{}: {err}", scan.display());
+        assert!(err.contains(&scan.display().to_string()), "the error names the file: {err}");
+        assert_eq!(err.matches(expected).count(), 1, "{}: the cause once: {err}", scan.display());
+        assert!(!out.exists(), "{}: no store is written", scan.display());
+    }
+    // A face may name a vertex read after it.
+    let ahead = write("forward.obj", b"v 0 0 0\nf 1 2 3\nv 1 0 0\nv 0 1 0\n");
+    let o =
+        kiosk().args(["import", "--quiet"]).arg(&ahead).arg("-o").arg(dir.path().join("f.kstore")).output();
+    let o = o.expect("run kiosk");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // An impossible setting is refused as a usage error, in the option's own name.
+    let o = kiosk()
+        .args(["import", "--quiet", "--node-points", "0"])
+        .arg(&ahead)
+        .arg("-o")
+        .arg(dir.path().join("n.kstore"))
+        .output()
+        .expect("run kiosk");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("--node-points") && err.contains("16..=1000000"), "{err}");
+}

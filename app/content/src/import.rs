@@ -85,7 +85,8 @@ pub fn import_locked(scan: &Path, lock: &OutputLock, opts: &ImportOptions) -> an
     let report = source::read_file(scan, &opts.read, &mut Feed { builder: &mut builder, pb: &pb, read: 0 })
         .map_err(|e| anyhow::Error::new(e).context(scan.display().to_string()))?;
     let staged = work.path.join("store.kstore");
-    let summary = build(builder, &staged, &pb).with_context(|| format!("building {}", lock.out.display()))?;
+    let summary = build(builder, &staged, &pb)
+        .with_context(|| format!("{}: building {}", scan.display(), lock.out.display()))?;
     std::fs::rename(&staged, &lock.out).with_context(|| format!("cannot write {}", lock.out.display()))?;
     drop(work);
     pb.finish_and_clear();
@@ -247,19 +248,17 @@ impl source::Sink for Feed<'_> {
 
 /// Runs the builder with a progress bar.
 pub fn build(builder: Builder, out: &Path, pb: &ProgressBar) -> anyhow::Result<BuildSummary> {
-    let summary = builder
-        .finish(out, &mut |stage| match stage {
-            Stage::Distribute(done, total) => {
-                pb.set_message("sorting");
-                pb.set_length(total);
-                pb.set_position(done);
-            }
-            Stage::Build(done, total) => {
-                pb.set_message("building");
-                pb.set_length(total);
-                pb.set_position(done);
-            }
-        })
-        .with_context(|| format!("building {}", out.display()))?;
+    let summary = builder.finish(out, &mut |stage| match stage {
+        Stage::Distribute(done, total) => {
+            pb.set_message("sorting");
+            pb.set_length(total);
+            pb.set_position(done);
+        }
+        Stage::Build(done, total) => {
+            pb.set_message("building");
+            pb.set_length(total);
+            pb.set_position(done);
+        }
+    })?;
     Ok(summary)
 }

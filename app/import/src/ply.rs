@@ -195,7 +195,7 @@ pub struct Header {
 pub enum PlyError {
     /// Reading failed.
     #[error("read error: {0}")]
-    Io(#[from] std::io::Error),
+    Io(std::io::Error),
     /// Problem in the header.
     #[error("header line {line}: {msg}")]
     Header {
@@ -230,6 +230,14 @@ pub enum PlyError {
         /// The coordinates.
         z: f64,
     },
+}
+
+// The message is in the variant's own, so the I/O error is not also a source (see
+// `source::ReadError`).
+impl From<std::io::Error> for PlyError {
+    fn from(e: std::io::Error) -> Self {
+        Self::Io(e)
+    }
 }
 
 fn herr(line: usize, msg: impl Into<String>) -> PlyError {

@@ -99,7 +99,7 @@ pub enum ReadError<E = std::convert::Infallible> {
     Ply(#[from] PlyError),
     /// I/O failure.
     #[error("read error: {0}")]
-    Io(#[from] std::io::Error),
+    Io(std::io::Error),
     /// The file is readable but is not a usable point set.
     #[error("{0}")]
     Unusable(String),
@@ -127,19 +127,33 @@ pub enum ReadError<E = std::convert::Infallible> {
     Format(#[from] crate::formats::DetectError),
     /// The LAS/LAZ reader failed.
     #[error("LAS: {0}")]
-    Las(#[source] crate::formats::las::LasError),
+    Las(crate::formats::las::LasError),
     /// The E57 reader failed.
     #[error("E57: {0}")]
-    E57(#[source] crate::formats::e57::E57Error),
+    E57(crate::formats::e57::E57Error),
     /// The OBJ reader failed.
     #[error(transparent)]
     Obj(#[from] crate::formats::obj::ObjError),
     /// The glTF reader failed.
     #[error("glTF: {0}")]
-    Gltf(#[from] crate::formats::gltf::GltfError),
+    Gltf(crate::formats::gltf::GltfError),
     /// A texture of the mesh cannot be used.
     #[error(transparent)]
     Texture(#[from] crate::formats::texture::TextureError),
+}
+
+// The wrapped errors' messages are in the variants' own (one line that says it all), so they are
+// not also given as sources: a report of the chain would print each message twice.
+impl<E> From<std::io::Error> for ReadError<E> {
+    fn from(e: std::io::Error) -> Self {
+        Self::Io(e)
+    }
+}
+
+impl<E> From<crate::formats::gltf::GltfError> for ReadError<E> {
+    fn from(e: crate::formats::gltf::GltfError) -> Self {
+        Self::Gltf(e)
+    }
 }
 
 impl<E> ReadError<E> {

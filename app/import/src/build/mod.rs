@@ -96,13 +96,21 @@ impl Default for BuildParams {
 pub enum BuildError {
     /// File system failure.
     #[error("I/O error: {0}")]
-    Io(#[from] std::io::Error),
+    Io(std::io::Error),
     /// The input cannot make a model.
     #[error("{0}")]
     Degenerate(String),
     /// Invalid settings.
     #[error("invalid build settings: {0}")]
     Params(String),
+}
+
+// The message is in the variant's own, so the I/O error is not also a source (see
+// `kiosk_import::ReadError`).
+impl From<std::io::Error> for BuildError {
+    fn from(e: std::io::Error) -> Self {
+        Self::Io(e)
+    }
 }
 
 /// What a build produced.
@@ -320,6 +328,33 @@ impl Builder {
             return Err(BuildError::Degenerate("the model has no samples".into()));
         }
         let origin = (self.min + self.max) * 0.5;
+        // A store keeps f32 coordinates relative to an f64 origin, within bounds that tell a real
+        // model from a corrupted store: a model beyond them cannot be stored.
+        let half = (self.max - self.min) * 0.5;
+        let (max_local, max_origin) =
+            (f64::from(kiosk_core::scene::store::MAX_LOCAL), kiosk_core::scene::store::MAX_ORIGIN);
+        if half.max_element() > max_local || origin.abs().max_element() > max_origin {
+            let at = |p: DVec3| {
+                p.to_array()
+                    .map(|c| {
+                        // Seven digits are plenty to see what is wrong.
+                        let c = c as f32;
+                        if c == 0.0 || (1e-3..1e7).contains(&c.abs()) {
+                            format!("{c}")
+                        } else {
+                            format!("{c:e}")
+                        }
+                    })
+                    .join(", ")
+            };
+            return Err(BuildError::Degenerate(format!(
+                "the samples reach from ({}) to ({}); a store holds a model at most {:e} units across, within \
+                 {max_origin:e} units of the origin (a wrong scale, or stray points?)",
+                at(self.min),
+                at(self.max),
+                2.0 * max_local,
+            )));
+        }
         let params = self.params;
         let mut ctx = Ctx {
             params,

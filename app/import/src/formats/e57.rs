@@ -12,10 +12,15 @@ use std::path::Path;
 #[derive(Debug, thiserror::Error)]
 pub enum E57Error<E = std::convert::Infallible> {
     /// The file's structure (header, XML section, binary sections).
-    #[error("{0}")]
+    #[error("{}", message(.0))]
     File(::e57::Error),
     /// A scan's points cannot be decoded.
-    #[error("scan {scan} ({name}){}: {source}", .point.map(|p| format!(", point {p}")).unwrap_or_default())]
+    #[error(
+        "scan {scan}{}{}: {}",
+        if name.is_empty() { String::new() } else { format!(" ({name})") },
+        .point.map(|p| format!(", point {p}")).unwrap_or_default(),
+        message(.cause)
+    )]
     Scan {
         /// 1-based scan index.
         scan: usize,
@@ -24,10 +29,14 @@ pub enum E57Error<E = std::convert::Infallible> {
         /// 1-based index, within the scan, of the point being decoded (`None`: opening it).
         point: Option<u64>,
         /// The decoder's error.
-        source: ::e57::Error,
+        cause: ::e57::Error,
     },
     /// No scan holds a valid point.
-    #[error("no valid point in its {0} scan(s)")]
+    #[error(
+        "{}",
+        if *.0 == 0 { "the file holds no point cloud (images only, or nothing)".to_string() }
+        else { format!("no valid point in its {} scan(s)", .0) }
+    )]
     Empty(usize),
     /// Rejected by the consumer of the points, with its error.
     #[error(transparent)]
@@ -42,7 +51,7 @@ impl<E> E57Error<E> {
     pub(crate) fn split(self) -> Result<E57Error, E> {
         match self {
             Self::File(e) => Ok(E57Error::File(e)),
-            Self::Scan { scan, name, point, source } => Ok(E57Error::Scan { scan, name, point, source }),
+            Self::Scan { scan, name, point, cause } => Ok(E57Error::Scan { scan, name, point, cause }),
             Self::Empty(n) => Ok(E57Error::Empty(n)),
             Self::Sink(e) => Err(e),
             Self::Corrupt(msg) => Ok(E57Error::Corrupt(msg)),
@@ -52,6 +61,20 @@ impl<E> E57Error<E> {
 
 /// Points handed on at a time.
 const CHUNK: usize = 1 << 16;
+
+/// The `e57` crate's message, or what a file that ends before the sections its header names
+/// means, in a user's words.
+fn message(e: &::e57::Error) -> String {
+    let mut cause: Option<&(dyn std::error::Error + 'static)> = Some(e);
+    while let Some(c) = cause {
+        if c.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::UnexpectedEof)
+        {
+            return "the file ends before the data its header announces (cut short?)".into();
+        }
+        cause = c.source();
+    }
+    e.to_string()
+}
 
 /// Reads every scan of an E57 file into `sink`.
 pub fn read<E>(path: &Path, sink: &mut dyn Sink<Error = E>) -> Result<ReadReport, E57Error<E>> {
@@ -66,11 +89,11 @@ fn read_guarded<E>(path: &Path, sink: &mut dyn Sink<Error = E>) -> Result<ReadRe
     sink.expect(clouds.iter().map(|pc| pc.records).sum());
     for (i, pc) in clouds.iter().enumerate() {
         let scan_err = |point: Option<u64>| {
-            move |source| E57Error::Scan {
+            move |cause| E57Error::Scan {
                 scan: i + 1,
                 name: pc.name.clone().unwrap_or_default(),
                 point,
-                source,
+                cause,
             }
         };
         let has_color = pc.has_color();

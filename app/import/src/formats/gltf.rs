@@ -401,13 +401,15 @@ fn image_texture<E>(
     let json = &doc.as_json().images[image.index()];
     let views = doc.as_json().buffer_views.len();
     let missing = match (&json.buffer_view, &json.uri) {
-        (Some(v), _) if v.value() >= views => Some(format!("buffer view {} of {views}", v.value())),
-        (Some(_), _) if json.mime_type.is_none() => Some("a mimeType beside its buffer view".to_string()),
-        (None, None) => Some("a uri or a buffer view".to_string()),
+        (Some(v), _) if v.value() >= views => {
+            Some(format!("its buffer view {} is not among the file's {views}", v.value()))
+        }
+        (Some(_), _) if json.mime_type.is_none() => Some("it has a buffer view but no mimeType".to_string()),
+        (None, None) => Some("it has neither a uri nor a buffer view".to_string()),
         _ => None,
     };
-    if let Some(what) = missing {
-        return Err(TextureError { source_name: name, msg: format!("the image has no {what}") }.into());
+    if let Some(msg) = missing {
+        return Err(TextureError { source_name: name, msg }.into());
     }
     match image.source() {
         gltf::image::Source::View { view, .. } => {

@@ -14,17 +14,17 @@ use std::path::Path;
 #[derive(Debug, thiserror::Error)]
 pub enum LasError<E = std::convert::Infallible> {
     /// The `las` crate's error on the header, the variable-length records or the chunk table.
-    #[error("{0}")]
-    Las(#[from] ::las::Error),
+    #[error("{}", message(.0))]
+    Las(::las::Error),
     /// The `las` crate's error on the point records (or their LAZ chunks) from `first` on.
-    #[error("points {first}–{last}: {source}")]
+    #[error("points {first}–{last}: {}", message(.cause))]
     Records {
         /// 1-based index of the first point of the batch being decoded.
         first: u64,
         /// 1-based index of its last point.
         last: u64,
         /// The decoder's error.
-        source: ::las::Error,
+        cause: ::las::Error,
     },
     /// A point with a non-finite coordinate.
     #[error("point {index}: non-finite coordinate ({x}, {y}, {z})")]
@@ -46,12 +46,36 @@ pub enum LasError<E = std::convert::Infallible> {
     Corrupt(String),
 }
 
+// The decoder's message is in the variants' own, so it is not also a source (see
+// `source::ReadError`).
+impl<E> From<::las::Error> for LasError<E> {
+    fn from(e: ::las::Error) -> Self {
+        Self::Las(e)
+    }
+}
+
+/// The `las` crate's message, or what a file that ends before its header, records or chunks do
+/// means, in a user's words.
+fn message(e: &::las::Error) -> String {
+    let io = match e {
+        ::las::Error::Io(io) | ::las::Error::LasZipError(::laz::LasZipError::IoError(io)) => Some(io),
+        _ => None,
+    };
+    match io {
+        Some(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
+            "the file ends before the data its header announces (cut short?)".into()
+        }
+        Some(io) => format!("read error: {io}"),
+        None => e.to_string(),
+    }
+}
+
 impl<E> LasError<E> {
     /// The reader's own error, or the consumer's.
     pub(crate) fn split(self) -> Result<LasError, E> {
         match self {
             Self::Las(e) => Ok(LasError::Las(e)),
-            Self::Records { first, last, source } => Ok(LasError::Records { first, last, source }),
+            Self::Records { first, last, cause } => Ok(LasError::Records { first, last, cause }),
             Self::NonFinite { index, x, y, z } => Ok(LasError::NonFinite { index, x, y, z }),
             Self::Sink(e) => Err(e),
             Self::Corrupt(msg) => Ok(LasError::Corrupt(msg)),
@@ -233,10 +257,10 @@ fn read_guarded<E>(path: &Path, sink: &mut dyn Sink<Error = E>) -> Result<ReadRe
     sink.expect(total);
     while index < total {
         let n = batch.min(total - index);
-        let read = reader.fill_points(n, &mut data).map_err(|source| LasError::Records {
+        let read = reader.fill_points(n, &mut data).map_err(|cause| LasError::Records {
             first: index + 1,
             last: index + n,
-            source,
+            cause,
         })?;
         if read == 0 {
             report.warnings.push(format!("the header announces {total} points, the file holds {index}"));

@@ -37,13 +37,21 @@ pub enum Format {
 pub enum DetectError {
     /// The file cannot be read.
     #[error("read error: {0}")]
-    Io(#[from] std::io::Error),
+    Io(std::io::Error),
     /// A format this build does not read.
     #[error("{what}: not a format the importer reads; it reads {SUPPORTED}")]
     Unsupported {
         /// What the file looks like.
         what: &'static str,
     },
+}
+
+// The message is in the variant's own, so the I/O error is not also a source (see
+// `source::ReadError`).
+impl From<std::io::Error> for DetectError {
+    fn from(e: std::io::Error) -> Self {
+        Self::Io(e)
+    }
 }
 
 /// The formats the importer reads, for error messages.

@@ -74,6 +74,9 @@ pub fn read_obj_in<E>(
     let mut tri_mat: Vec<u32> = Vec::new();
     let mut tri_uv: Vec<[u32; 3]> = Vec::new();
     let unusable = |line: usize, msg: String| ReadError::Obj(ObjError::Line { line, msg });
+    // Faces may name vertices read after them; the face that names the largest vertex beyond
+    // those read before it (its line, its 0-based index) is checked once all are read.
+    let mut ahead: Option<(usize, f64)> = None;
     let mut visit = |_: &[u8], parsed: &mut ObjParsed| -> Result<(), ReadError<E>> {
         for piece in &mut parsed.pieces {
             let (mut v, mut f, mut names) = (0, 0, 0);
@@ -146,6 +149,19 @@ pub fn read_obj_in<E>(
                                 .iter()
                                 .map(|&i| if i < 0 { count + i as f64 } else { i as f64 - 1.0 }),
                         );
+                        if let Some(k) = idx.iter().position(|&i| i < 0.0) {
+                            let raw = piece.indices[f + k];
+                            return Err(unusable(
+                                line,
+                                format!(
+                                    "vertex index {raw} refers before the first vertex: {count} 'v' lines so far"
+                                ),
+                            ));
+                        }
+                        let last = idx.iter().copied().fold(0.0, f64::max);
+                        if last >= count && ahead.is_none_or(|(_, a)| last > a) {
+                            ahead = Some((line, last));
+                        }
                         let before = buffered.tris.len();
                         buffered.add_polygon(&idx).map_err(|m| unusable(line, m))?;
                         if !libraries.is_empty() {
@@ -200,6 +216,16 @@ pub fn read_obj_in<E>(
     })?;
     if report.rows == 0 {
         return Err(ReadError::Obj(ObjError::NoVertices));
+    }
+    if let Some((line, last)) = ahead {
+        let n = buffered.points.len();
+        if last >= n as f64 {
+            let msg = format!(
+                "a face refers to vertex {} but the file has {n} vertices (counted from 1)",
+                last + 1.0
+            );
+            return Err(unusable(line, msg));
+        }
     }
     if dropped > 0 {
         report.warnings.push(format!("{dropped} vertex row(s) with non-finite coordinates dropped"));
