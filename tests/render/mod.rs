@@ -741,3 +741,60 @@ fn heap_growth_over_frames() {
         );
     }
 }
+
+#[test]
+fn a_corrupted_node_is_never_drawn_its_ancestor_stands_in_and_a_snapshot_says_so() {
+    // The bunny's store with one byte of a node's splats flipped (the index is sound: the store
+    // opens, as a store damaged on disk would).
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("bunny.kstore");
+    let mut b = kiosk_import::Builder::new(common::small_nodes(), dir.path()).expect("builder");
+    for p in common::read("scans/stanford-bunny/bun_zipper.ply") {
+        b.push(p).expect("push");
+    }
+    b.finish(&path, &mut |_| {}).expect("build");
+    let sound = kiosk_content::open_store(&path).expect("the store");
+    let camera = start(&sound);
+    let size = (320, 240);
+    let view = camera.view_params(&sound, size).expect("view");
+    let mut cut = kiosk_core::Cut::root(&sound);
+    let params = kiosk_core::CutParams { tolerance_px: 1.0, max_changes: usize::MAX, ..Default::default() };
+    cut.update(&sound, &view, &params);
+    let nodes = cut.visible_nodes(&sound, &view);
+    // The node nearest the eye, so that it shows.
+    let near = |id: &&u32| sound.to_model(sound.node(**id).bbox().center()).distance(camera.eye);
+    let leaf = **nodes
+        .iter()
+        .filter(|&&id| id != sound.root())
+        .collect::<Vec<_>>()
+        .iter()
+        .min_by(|a, b| near(a).total_cmp(&near(b)))
+        .expect("a node below the root in view");
+    let mut bytes = std::fs::read(&path).expect("read");
+    bytes[sound.node(leaf).points_offset as usize + 4] ^= 0x40;
+    let broken_path = dir.path().join("broken.kstore");
+    std::fs::write(&broken_path, &bytes).expect("write");
+    let broken = kiosk_content::open_store(&broken_path).expect("the index is sound");
+
+    let g = gpu().lock().unwrap_or_else(|e| e.into_inner());
+    let settings = RenderSettings::default();
+    let fresh = || Renderer::new(&g.0, kiosk_render::OFFSCREEN_FORMAT);
+    let (good, _) = fresh().render_image(&g.0, &sound, &nodes, &camera, size, &settings).expect("render");
+    let mut renderer = fresh();
+    let (image, stats) =
+        renderer.render_image(&g.0, &broken, &nodes, &camera, size, &settings).expect("render");
+    assert_eq!(stats.corrupt, 1, "{stats:?}");
+    assert_eq!(renderer.corrupt_nodes().keys().copied().collect::<Vec<_>>(), [leaf]);
+    assert!(renderer.corrupt_nodes()[&leaf].contains(&format!("node {leaf} data checksum")));
+    // Its parent stands in: the bunny is whole, only coarser there.
+    let s = ssim(&good, &image);
+    let changed = good.pixels().zip(image.pixels()).filter(|(a, b)| a != b).count();
+    assert!(s > 0.99 && changed > 100, "SSIM {s}, {changed} pixels changed, against the sound store");
+    // Checked once: the next frame finds nothing new.
+    let (_, stats) = renderer.render_image(&g.0, &broken, &nodes, &camera, size, &settings).expect("render");
+    assert_eq!(stats.corrupt, 0, "{stats:?}");
+    // A snapshot is an error that names the node.
+    let e = kiosk_content::snapshot::snapshot(&g.0, &mut fresh(), &broken, &camera, size, 1.0, &settings)
+        .expect_err("a corrupted store");
+    assert!(e.to_string().contains(&format!("node {leaf} data checksum mismatch")), "{e}");
+}

@@ -8,7 +8,8 @@ use kiosk_core::light::Light;
 use kiosk_core::{Cut, CutParams};
 use kiosk_render::{Gpu, OFFSCREEN_FORMAT, RenderSettings, Renderer};
 
-/// Renders `camera`'s view of `store` at `size` with a converged cut of `tolerance_px`.
+/// Renders `camera`'s view of `store` at `size` with a converged cut of `tolerance_px`; an
+/// error if a node it would draw is corrupted.
 pub fn snapshot(
     gpu: &Gpu,
     renderer: &mut Renderer,
@@ -23,6 +24,12 @@ pub fn snapshot(
     cut.update(store, &view, &CutParams { tolerance_px, max_changes: usize::MAX, ..CutParams::default() });
     let nodes = cut.visible_nodes(store, &view);
     let (image, _) = renderer.render_image(gpu, store, &nodes, camera, size, settings)?;
+    if let Some((id, why)) = renderer.corrupt_nodes().iter().next() {
+        anyhow::bail!(
+            "{why} ({} node(s) of this view fail their check, node {id} first; `kiosk verify` checks them all)",
+            renderer.corrupt_nodes().len()
+        );
+    }
     Ok(image)
 }
 

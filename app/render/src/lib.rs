@@ -288,6 +288,8 @@ pub struct FrameStats {
     pub substituted: usize,
     /// Bytes held by the cache after the frame.
     pub cache_bytes: u64,
+    /// Nodes found corrupt this frame (see [`Renderer::corrupt_nodes`]).
+    pub corrupt: usize,
 }
 
 /// Needs to be kept in sync with `Frame` in shaders/splat.wgsl.
@@ -356,6 +358,8 @@ pub struct Renderer {
     cache_bytes: u64,
     /// Which store the cache holds nodes of (index checksum, length, origin).
     cache_store: Option<(u32, u64, [u64; 3])>,
+    /// Nodes of that store whose data failed their check (never uploaded), and why.
+    corrupt: std::collections::BTreeMap<NodeId, String>,
     frame: u64,
     /// Depth and EDL targets by size, most recently used first (a window and an inset alternate
     /// without reallocating).
@@ -591,6 +595,7 @@ impl Renderer {
             cache: HashMap::new(),
             cache_bytes: 0,
             cache_store: None,
+            corrupt: std::collections::BTreeMap::new(),
             frame: 0,
             targets: Vec::new(),
         }
@@ -644,6 +649,12 @@ impl Renderer {
         &self.targets[0]
     }
 
+    /// The nodes of the current store whose data failed their check, with why: they are drawn
+    /// as their nearest sound ancestor, if any.
+    pub fn corrupt_nodes(&self) -> &std::collections::BTreeMap<NodeId, String> {
+        &self.corrupt
+    }
+
     /// Makes the visible nodes resident (within the upload budget) and returns what to draw.
     fn resident<B: AsRef<[u8]>>(
         &mut self,
@@ -662,6 +673,7 @@ impl Renderer {
             self.cache.clear();
             self.cache_bytes = 0;
             self.cache_store = Some(key);
+            self.corrupt.clear();
         }
         let mut draw = Vec::with_capacity(nodes.len());
         let mut seen = HashSet::new();
@@ -686,6 +698,22 @@ impl Renderer {
             stats.uploads += 1;
             stats.uploaded_bytes += bytes.len() as u64;
         };
+        // A node's data is checked once, before its first upload (a CRC over its bytes, as
+        // cheap as the copy): a corrupted node is never drawn, its nearest sound ancestor is
+        // (its parent, usually: a coarser patch where the node was).
+        let sound = |r: &mut Self, id: NodeId, stats: &mut FrameStats| {
+            if r.corrupt.contains_key(&id) {
+                return false;
+            }
+            match store.verify_node(id) {
+                Ok(()) => true,
+                Err(e) => {
+                    r.corrupt.insert(id, e.to_string());
+                    stats.corrupt += 1;
+                    false
+                }
+            }
+        };
         for &id in nodes {
             if let Some(e) = self.cache.get_mut(&id) {
                 e.last_used = frame;
@@ -695,21 +723,43 @@ impl Renderer {
                 continue;
             }
             let size = u64::from(store.node(id).point_count) * std::mem::size_of::<Splat>() as u64;
-            if stats.uploaded_bytes + size <= settings.upload_budget_bytes || stats.uploaded_bytes == 0 {
+            let within =
+                stats.uploaded_bytes + size <= settings.upload_budget_bytes || stats.uploaded_bytes == 0;
+            if within && sound(self, id, stats) {
                 upload(self, id, stats);
                 if seen.insert(id) {
                     draw.push(id);
                 }
                 continue;
             }
-            // Over budget: the nearest cached ancestor stands in (the root, at worst, uploaded).
+            if within {
+                // Corrupt: its nearest sound ancestor stands in, uploaded if need be.
+                let mut a = store.node(id).parent;
+                while a != u32::MAX && !self.cache.contains_key(&a) {
+                    if sound(self, a, stats) {
+                        upload(self, a, stats);
+                        break;
+                    }
+                    a = store.node(a).parent;
+                }
+                if let Some(e) = self.cache.get_mut(&a) {
+                    e.last_used = frame;
+                    stats.substituted += 1;
+                    if seen.insert(a) {
+                        draw.push(a);
+                    }
+                }
+                continue;
+            }
+            // Over budget: the nearest cached ancestor stands in (the root, at worst, uploaded if
+            // sound).
             let mut a = store.node(id).parent;
             while a != u32::MAX && !self.cache.contains_key(&a) {
                 a = store.node(a).parent;
             }
             let stand_in = if a == u32::MAX {
                 let root = store.root();
-                if !self.cache.contains_key(&root) {
+                if !self.cache.contains_key(&root) && sound(self, root, stats) {
                     upload(self, root, stats);
                 }
                 root
@@ -718,10 +768,10 @@ impl Renderer {
             };
             if let Some(e) = self.cache.get_mut(&stand_in) {
                 e.last_used = frame;
-            }
-            stats.substituted += 1;
-            if seen.insert(stand_in) {
-                draw.push(stand_in);
+                stats.substituted += 1;
+                if seen.insert(stand_in) {
+                    draw.push(stand_in);
+                }
             }
         }
         // Evict least recently used nodes not drawn this frame.

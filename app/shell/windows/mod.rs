@@ -658,10 +658,19 @@ impl Running<'_> {
             }
         }
         let canvas = &self.gfx.projection.canvas;
-        if let Err(e) =
-            self.gfx.renderer.render(&self.gfx.gpu, store, &nodes, &camera, &canvas.view, size, &settings)
-        {
-            self.report("render", &e);
+        match self.gfx.renderer.render(&self.gfx.gpu, store, &nodes, &camera, &canvas.view, size, &settings) {
+            Err(e) => self.report("render", &e),
+            Ok(stats) if stats.corrupt > 0 => {
+                for why in self.gfx.renderer.corrupt_nodes().values() {
+                    let what = format!("{} (its model)", ex.dir.display());
+                    report_once(
+                        &mut self.reported,
+                        &what,
+                        &format!("{why}; drawn as its nearest sound ancestor"),
+                    );
+                }
+            }
+            Ok(_) => {}
         }
         // The suggestion inset: fade in, the path from here to the proposed view, hold, fade out.
         let mut inset = None;
