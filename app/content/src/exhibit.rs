@@ -10,7 +10,9 @@ use std::path::{Path, PathBuf};
 /// The endings of the scans an exhibit may hold instead of a store.
 const SCANS: [&str; 9] = [".ply", ".ply.gz", ".obj", ".obj.gz", ".glb", ".gltf", ".las", ".laz", ".e57"];
 
-/// Finds the model of an exhibit directory: its store if it has one, else its scan.
+/// Finds the model of an exhibit directory: its store if it has one (a store beside the scan it
+/// was made from comes first), else its scan. Two stores, or two scans and no store, are an error
+/// that names them: the kiosk would not know which to show.
 pub fn model_file(dir: &Path) -> anyhow::Result<PathBuf> {
     let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
         .with_context(|| format!("cannot read exhibit directory {}", dir.display()))?
@@ -18,21 +20,23 @@ pub fn model_file(dir: &Path) -> anyhow::Result<PathBuf> {
         .collect();
     entries.sort();
     let name = |p: &PathBuf| p.file_name().and_then(|n| n.to_str()).unwrap_or("").to_ascii_lowercase();
-    if let Some(s) = entries.iter().find(|p| name(p).ends_with(".kstore")) {
-        return Ok(s.clone());
+    let stores: Vec<&PathBuf> = entries.iter().filter(|p| name(p).ends_with(".kstore")).collect();
+    let scans: Vec<&PathBuf> =
+        entries.iter().filter(|p| SCANS.iter().any(|e| name(p).ends_with(e))).collect();
+    let (found, what) = if stores.is_empty() { (scans, "scans") } else { (stores, "stores") };
+    match found[..] {
+        [one] => Ok(one.clone()),
+        [] => anyhow::bail!(
+            "{}: no model (*.kstore, *.ply, *.ply.gz, *.obj, *.obj.gz, *.glb, *.gltf, *.las, *.laz or *.e57)",
+            dir.display()
+        ),
+        _ => anyhow::bail!(
+            "{}: {} {what} ({}): an exhibit shows one model; move the others out",
+            dir.display(),
+            found.len(),
+            found.iter().map(|p| name(p)).collect::<Vec<_>>().join(", ")
+        ),
     }
-    entries
-        .into_iter()
-        .find(|p| {
-            let n = name(p);
-            SCANS.iter().any(|e| n.ends_with(e))
-        })
-        .with_context(|| {
-            format!(
-                "{}: no model (*.kstore, *.ply, *.ply.gz, *.obj, *.glb, *.gltf, *.las, *.laz or *.e57)",
-                dir.display()
-            )
-        })
 }
 
 /// Opens an exhibit's model, importing a scan into the cache ([`cache_dir`]) when needed (see
@@ -470,6 +474,16 @@ mod tests {
         assert_eq!(model_file(dir.path()).expect("a glb"), dir.path().join("vase.glb"));
         std::fs::write(dir.path().join("vase.kstore"), b"").expect("write");
         assert_eq!(model_file(dir.path()).expect("a store"), dir.path().join("vase.kstore"));
+        // Two stores, or two scans: which one the kiosk would show is not for it to guess.
+        std::fs::write(dir.path().join("bust.kstore"), b"").expect("write");
+        let e = model_file(dir.path()).expect_err("two stores").to_string();
+        assert!(e.contains("2 stores (bust.kstore, vase.kstore)") && e.contains("one model"), "{e}");
+        for store in ["bust.kstore", "vase.kstore"] {
+            std::fs::remove_file(dir.path().join(store)).expect("remove");
+        }
+        std::fs::write(dir.path().join("bust.obj"), b"").expect("write");
+        let e = model_file(dir.path()).expect_err("two scans").to_string();
+        assert!(e.contains("2 scans (bust.obj, vase.glb)"), "{e}");
     }
 
     #[test]
