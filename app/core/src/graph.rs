@@ -547,11 +547,12 @@ impl InfoGraph {
         for e in raw.edges {
             let (Some(&from), Some(&to)) = (index.get(e.from.as_str()), index.get(e.to.as_str())) else {
                 let unknown = if index.contains_key(e.from.as_str()) { &e.to } else { &e.from };
-                bad(
-                    Some(unknown),
-                    format!("edge {} → {} names an unknown node; dropped", e.from, e.to),
-                    true,
-                );
+                let why = if seen.contains(unknown.trim()) {
+                    "names a node dropped above"
+                } else {
+                    "names an unknown node"
+                };
+                bad(Some(unknown), format!("edge {} → {} {why}; dropped", e.from, e.to), true);
                 continue;
             };
             let weight = number(&e.weight).unwrap_or(f64::NAN);
@@ -1145,6 +1146,16 @@ mod tests {
         assert!(has("node 'b': importance 3 outside [0, 1]"));
         assert!(has("node 'e': view eye/target/up"));
         assert!(has("node 'zzz': edge a → zzz names an unknown node"));
+        assert!(!has("names a node dropped above"), "{text:?}");
+        // An edge to a node that was dropped says so, rather than calling it unknown.
+        let xml =
+            xml.replace(r#"<edge from="c" to="d" weight="1"/>"#, r#"<edge from="c" to="e" weight="1"/>"#);
+        let (_, problems) = InfoGraph::from_xml(&xml).expect("readable");
+        let text: Vec<String> = problems.iter().map(ToString::to_string).collect();
+        assert!(
+            text.iter().any(|t| t == "node 'e': edge c → e names a node dropped above; dropped"),
+            "{text:?}"
+        );
         assert!(has("node 'b': edge a → b has weight \"1.5\", not a number in [0, 1]"), "{text:?}");
         assert!(has("node 'c': can never be shown"));
         assert!(has("node 'd': can never be shown"));
