@@ -143,3 +143,17 @@ pub fn rerun_in_child(test: &str, var: &str, value: impl AsRef<OsStr>) -> std::p
         .output()
         .expect("run the test binary again")
 }
+
+/// Copies a directory tree (an exhibit, to break a copy of it).
+pub fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).expect("mkdir");
+    for e in std::fs::read_dir(from).expect("read dir") {
+        let e = e.expect("entry");
+        let target = to.join(e.file_name());
+        if e.path().is_dir() {
+            copy_dir(&e.path(), &target);
+        } else {
+            std::fs::copy(e.path(), &target).expect("copy");
+        }
+    }
+}

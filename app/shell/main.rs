@@ -166,7 +166,7 @@ enum Command {
         /// The store file.
         store: PathBuf,
     },
-    /// Render one view of an exhibit's model offscreen to a PNG.
+    /// Render one view of an exhibit's model offscreen to a PNG or JPEG.
     Snapshot {
         /// Exhibit directory.
         #[arg(long)]
@@ -180,7 +180,7 @@ enum Command {
         /// Image size, WxH.
         #[arg(long, default_value = "1280x720")]
         size: String,
-        /// Output PNG.
+        /// The image to write: .png, or .jpg / .jpeg.
         #[arg(short, long)]
         output: PathBuf,
         /// How splats are drawn: blended (smooth), discs or points (faster).
@@ -210,6 +210,18 @@ enum Command {
         /// Configuration file whose state_dir to use.
         #[arg(long)]
         config: Option<PathBuf>,
+    },
+    /// Check exhibits as the kiosk would load them, without a window, GPU or audio device: the
+    /// model (a scan is imported into the cache, as at the kiosk's first start), its pose, its
+    /// story and media, every narration decoded. Lists every problem, naming the file and the
+    /// node; fails if the kiosk would leave anything out.
+    Check {
+        /// Exhibit directories.
+        #[arg(required = true)]
+        exhibits: Vec<PathBuf>,
+        /// Also check every node's checksum (reads the whole store).
+        #[arg(long)]
+        full: bool,
     },
     /// Play narration files through the default audio device, one after the other, and wait
     /// for each to end: a technician's check that the kiosk will be heard. Fails if there is no
@@ -300,6 +312,10 @@ fn main() -> anyhow::Result<()> {
             );
         }
         Command::Snapshot { exhibit, view, node, size, output, splats, edl, tolerance } => {
+            let format = match image::ImageFormat::from_path(&output) {
+                Ok(f @ (image::ImageFormat::Png | image::ImageFormat::Jpeg)) => f,
+                _ => anyhow::bail!("--output {}: name a .png or .jpg file", output.display()),
+            };
             let store = kiosk_content::exhibit::open_model(&exhibit)?;
             let size = parse_size(&size)?;
             // The view and its light: a node's stored light, else the light a visit starts with.
@@ -309,9 +325,15 @@ fn main() -> anyhow::Result<()> {
             let (camera, light) = match (view, node) {
                 (Some(v), _) => (parse_view(&v)?, start_light),
                 (None, Some(id)) => {
-                    let (graph, _) = kiosk_content::exhibit::open_graph(&exhibit)?
+                    let (graph, problems) = kiosk_content::exhibit::open_graph(&exhibit)?
                         .with_context(|| format!("{}: no graph.xml for --node", exhibit.display()))?;
-                    let i = graph.index_of(&id).with_context(|| format!("no node '{id}' in the graph"))?;
+                    let i = graph.index_of(&id).with_context(|| {
+                        let graph_file = exhibit.join("graph.xml");
+                        match problems.iter().find(|p| p.dropped && p.node.as_deref() == Some(id.as_str())) {
+                            Some(p) => format!("{}: {p}", graph_file.display()),
+                            None => format!("{}: no node '{id}'", graph_file.display()),
+                        }
+                    })?;
                     (graph.nodes[i].view, kiosk_content::snapshot::node_light(&graph.nodes[i], start_light))
                 }
                 (None, None) => (start, start_light),
@@ -331,7 +353,11 @@ fn main() -> anyhow::Result<()> {
                 tolerance,
                 &settings,
             )?;
-            image.save(&output).with_context(|| format!("cannot write {}", output.display()))?;
+            let saved = match format {
+                image::ImageFormat::Jpeg => image::DynamicImage::ImageRgba8(image).to_rgb8().save(&output),
+                _ => image.save(&output),
+            };
+            saved.with_context(|| format!("cannot write {}", output.display()))?;
             println!(
                 "{}: {}x{} on {} ({:?})",
                 output.display(),
@@ -357,6 +383,21 @@ fn main() -> anyhow::Result<()> {
                 state,
             };
             print!("{}", kiosk::report::run(&opts)?);
+        }
+        Command::Check { exhibits, full } => {
+            let mut failed = 0;
+            for dir in &exhibits {
+                let checked = kiosk_content::check::check(dir, &kiosk_content::exhibit::cache_dir(), full);
+                println!("{}", dir.display());
+                for line in &checked.sound {
+                    println!("  {line}");
+                }
+                for (error, line) in &checked.problems {
+                    println!("  {}: {line}", if *error { "error" } else { "warning" });
+                }
+                failed += usize::from(checked.has_errors());
+            }
+            anyhow::ensure!(failed == 0, "{failed} of {} exhibit(s) have errors (above)", exhibits.len());
         }
         Command::SoundCheck { files, volume } => {
             anyhow::ensure!((0.0..=1.0).contains(&volume), "--volume {volume}: between 0 and 1");

@@ -599,6 +599,30 @@ fn an_image_larger_than_the_device_allows_is_a_clear_error() {
 }
 
 #[test]
+fn a_snapshot_writes_png_or_jpeg_and_refuses_other_names_before_it_writes() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let exhibit = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("content/demosthenes");
+    let size = ["--size", "240x180"];
+    let png = common::snapshot(&exhibit, &dir.path().join("s.png"), &common::cache(), &size);
+    let jpg = common::snapshot(&exhibit, &dir.path().join("s.jpg"), &common::cache(), &size);
+    let s = ssim(&png, &jpg);
+    assert!(s > 0.9, "SSIM {s}: the JPEG shows the PNG's view");
+    let out = dir.path().join("s.bmp");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_kiosk"))
+        .env("ISOKIOSK_CACHE", common::cache())
+        .env("RUST_BACKTRACE", "0")
+        .args(["snapshot", "--exhibit"])
+        .arg(&exhibit)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .expect("run kiosk");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("name a .png or .jpg file"), "{err}");
+    assert!(!out.exists());
+}
+
+#[test]
 fn the_textured_mesh_reference_and_the_splats_show_the_same_texture() {
     // Khronos' BoxTextured: a cube with the glTF logo texture. The mesh reference samples the
     // texture per pixel; the store's splats carry the colours the importer sampled from it.

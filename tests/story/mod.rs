@@ -1,5 +1,6 @@
 //! The information graph, the recommendation engine and the radial selector.
 
+mod check;
 mod engine;
 mod sessions;
 mod visit;

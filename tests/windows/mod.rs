@@ -251,26 +251,13 @@ fn attract_loop_and_reset_with_an_accelerated_clock() {
     assert_eq!(stats["visits"], 1);
 }
 
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).expect("mkdir");
-    for e in std::fs::read_dir(from).expect("read dir") {
-        let e = e.expect("entry");
-        let target = to.join(e.file_name());
-        if e.path().is_dir() {
-            copy_dir(&e.path(), &target);
-        } else {
-            std::fs::copy(e.path(), &target).expect("copy");
-        }
-    }
-}
-
 #[test]
 fn broken_content_is_logged_once_and_the_rest_keeps_working() {
     // A copy of the Demosthenes exhibit with the intro's overlay truncated and its narration
     // missing, and a second exhibit whose model is garbage.
     let content = tempfile::tempdir().expect("temp dir");
     let good = content.path().join("a-demosthenes");
-    copy_dir(&self::content().join("demosthenes"), &good);
+    crate::common::copy_dir(&self::content().join("demosthenes"), &good);
     let overlay = good.join("overlays/intro-en.png");
     let bytes = std::fs::read(&overlay).expect("overlay");
     std::fs::write(&overlay, &bytes[..bytes.len() / 3]).expect("truncate overlay");
@@ -388,7 +375,7 @@ fn snapshot_renders_a_node_in_its_stored_light() {
     // A copy of the Demosthenes exhibit whose "face" view stores a raking light from the left.
     let dir = tempfile::tempdir().expect("temp dir");
     let exhibit = dir.path().join("demosthenes");
-    copy_dir(&content().join("demosthenes"), &exhibit);
+    crate::common::copy_dir(&content().join("demosthenes"), &exhibit);
     let shot = |name: &str| -> RgbaImage {
         let out = dir.path().join(name);
         crate::common::snapshot(
