@@ -186,11 +186,11 @@ enum Command {
         /// How splats are drawn: blended (smooth), discs or points (faster).
         #[arg(long, default_value = "blended")]
         splats: kiosk_render::SplatMode,
-        /// Eye-dome lighting strength (0 = off).
-        #[arg(long, default_value_t = 0.0)]
+        /// Eye-dome lighting strength, 0 (off) to 4.
+        #[arg(long, default_value_t = 0.0, value_parser = edl_strength)]
         edl: f32,
-        /// Pixel tolerance of the cut.
-        #[arg(long, default_value_t = 1.0)]
+        /// Pixel tolerance of the cut (more than 0; larger is faster and coarser).
+        #[arg(long, default_value_t = 1.0, value_parser = tolerance_px)]
         tolerance: f32,
     },
     /// Visit statistics of an exhibit: a table per node and SVG plots.
@@ -257,7 +257,9 @@ enum Command {
 
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
+    use std::io::IsTerminal;
     tracing_subscriber::fmt()
+        .with_ansi(std::io::stderr().is_terminal())
         .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
             tracing_subscriber::EnvFilter::new("info,wgpu_core=warn,wgpu_hal=warn,naga=warn")
         }))
@@ -475,6 +477,22 @@ fn main() -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// `--edl`: as `edl` in kiosk.toml, 0 to 4.
+fn edl_strength(s: &str) -> Result<f32, String> {
+    let v: f32 = s.parse().map_err(|e| format!("{e}"))?;
+    if (0.0..=4.0).contains(&v) { Ok(v) } else { Err(format!("{v}: the strength is between 0 (off) and 4")) }
+}
+
+/// `--tolerance`: as `tolerance_px` in kiosk.toml, a positive number of pixels.
+fn tolerance_px(s: &str) -> Result<f32, String> {
+    let v: f32 = s.parse().map_err(|e| format!("{e}"))?;
+    if v > 0.0 && v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("{v}: the tolerance is a positive number of pixels"))
+    }
 }
 
 /// `--texel-density`: a positive number up to 64.

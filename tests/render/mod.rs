@@ -620,6 +620,17 @@ fn a_snapshot_writes_png_or_jpeg_and_refuses_other_names_before_it_writes() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("name a .png or .jpg file"), "{err}");
     assert!(!out.exists());
+    // Settings out of range are usage errors, as in kiosk.toml.
+    for (flag, value) in [("--edl", "-1"), ("--tolerance", "0")] {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_kiosk"))
+            .args(["snapshot", "--exhibit"])
+            .arg(&exhibit)
+            .args(["-o", "never.png", &format!("{flag}={value}")])
+            .output()
+            .expect("run kiosk");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.code() == Some(2) && err.contains(flag), "{flag} {value}: {err}");
+    }
 }
 
 #[test]

@@ -122,4 +122,6 @@ fn sound_check_without_a_device_says_the_kiosk_would_be_silent() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "sound-check must fail without a device");
     assert!(stderr.contains("no audio device"), "{stderr}");
+    // The log's warning, written to a pipe, carries no terminal colour codes.
+    assert!(stderr.contains("WARN") && !stderr.contains('\x1b'), "{stderr:?}");
 }
