@@ -41,8 +41,8 @@ impl std::fmt::Display for ImportReport {
         let b = &self.build;
         write!(
             f,
-            "{} input points → {} distinct samples; {} nodes, {} levels, {} samples in all levels; \
-             {:.1} MB; {:.2} s; {:.0} points/s",
+            "{} samples read → {} distinct; {} nodes, {} levels, {} samples in all levels; \
+             {:.1} MB; {:.2} s; {:.0} samples/s",
             b.input_points,
             b.leaf_points,
             b.nodes,
