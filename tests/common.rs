@@ -146,14 +146,6 @@ pub fn rerun_in_child(test: &str, var: &str, value: impl AsRef<OsStr>) -> std::p
 
 /// Copies a directory tree (an exhibit, to break a copy of it).
 pub fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).expect("mkdir");
-    for e in std::fs::read_dir(from).expect("read dir") {
-        let e = e.expect("entry");
-        let target = to.join(e.file_name());
-        if e.path().is_dir() {
-            copy_dir(&e.path(), &target);
-        } else {
-            std::fs::copy(e.path(), &target).expect("copy");
-        }
-    }
+    kiosk_testkit::copy_dir(from, to)
+        .unwrap_or_else(|e| panic!("copy {} to {}: {e}", from.display(), to.display()));
 }
