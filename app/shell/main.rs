@@ -482,13 +482,17 @@ fn main() -> anyhow::Result<()> {
 /// `--edl`: as `edl` in kiosk.toml, 0 to 4.
 fn edl_strength(s: &str) -> Result<f32, String> {
     let v: f32 = s.parse().map_err(|e| format!("{e}"))?;
-    if (0.0..=4.0).contains(&v) { Ok(v) } else { Err(format!("{v}: the strength is between 0 (off) and 4")) }
+    if kiosk::windows::config::edl_ok(v) {
+        Ok(v)
+    } else {
+        Err(format!("{v}: the strength is between 0 (off) and 4"))
+    }
 }
 
 /// `--tolerance`: as `tolerance_px` in kiosk.toml, a positive number of pixels.
 fn tolerance_px(s: &str) -> Result<f32, String> {
     let v: f32 = s.parse().map_err(|e| format!("{e}"))?;
-    if v > 0.0 && v.is_finite() {
+    if kiosk::windows::config::tolerance_ok(v) {
         Ok(v)
     } else {
         Err(format!("{v}: the tolerance is a positive number of pixels"))

@@ -172,7 +172,7 @@ fn import_errors_say_each_cause_once_and_name_the_file_and_the_place() {
         ),
         (
             write("zero.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n"),
-            "line 4: vertex index 0 refers before the first vertex",
+            "line 4: vertex index 0: OBJ counts vertices from 1 (or back from -1), and 3 'v' lines come before it",
         ),
         (
             write("huge.ply", &huge),

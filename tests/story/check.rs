@@ -28,15 +28,15 @@ fn kiosk_check_lists_what_the_kiosk_would_leave_out_naming_file_and_node() {
     for line in [
         "model demosthenes-low-res.obj: 9571 samples",
         "story: 9 nodes, 9 edges, languages en, it",
-        "18 narration(s) decode",
+        "36 image(s) and 18 narration(s) open",
     ] {
         assert!(out.contains(line), "{line}: {out}");
     }
     assert!(!out.contains("error") && !out.contains("warning"), "{out}");
 
-    // A narration that does not decode, a node whose view is broken (and the edges to it), a
-    // misspelt key in exhibit.toml: each named with its file and node; the kiosk would leave
-    // them out, so the check fails.
+    // A narration that does not decode, a truncated overlay, a node whose view is broken (and
+    // the edges to it), a misspelt key in exhibit.toml: each named with its file and node; the
+    // kiosk would leave them out, so the check fails.
     let broken = dir.path().join("broken");
     common::copy_dir(&content.join("demosthenes"), &broken);
     std::fs::write(broken.join("audio/brow-it.wav"), b"RIFF not really a wave").expect("write");
@@ -44,13 +44,17 @@ fn kiosk_check_lists_what_the_kiosk_would_leave_out_naming_file_and_node() {
     let graph = graph.replacen(r#"<view eye="0.13 1.55 2.9""#, r#"<view eye="0.13 1.55""#, 1);
     std::fs::write(broken.join("graph.xml"), graph).expect("write");
     std::fs::write(broken.join("exhibit.toml"), "frnt = \"-z\"\n").expect("write");
+    let overlay = broken.join("overlays/intro-en.png");
+    let png = std::fs::read(&overlay).expect("overlay");
+    std::fs::write(&overlay, &png[..png.len() / 2]).expect("write");
     let (ok, out) = check(&[&good, &broken], false);
     assert!(!ok, "{out}");
     let g = broken.join("graph.xml").display().to_string();
     for line in [
         format!("error: {g}: node 'face': view eye/target/up must be three finite numbers each; dropped"),
         format!("error: {g}: node 'face': edge intro → face names a node dropped above; dropped"),
-        format!("error: {g}: node 'brow': narration {}", broken.join("audio/brow-it.wav").display()),
+        format!("error: {g}: node 'brow': narration audio/brow-it.wav: "),
+        format!("error: {g}: node 'intro': image overlays/intro-en.png: "),
         format!("error: {}: TOML parse error", broken.join("exhibit.toml").display()),
         "1 of 2 exhibit(s) have errors".to_string(),
     ] {

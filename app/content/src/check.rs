@@ -5,6 +5,8 @@
 //! leaves out what they name; here a technician or a curator sees them all before a visitor does.
 
 use crate::exhibit;
+use kiosk_core::graph::InfoGraph;
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// What [`check`] found in one exhibit.
@@ -67,38 +69,67 @@ pub fn check(dir: &Path, cache: &Path, full: bool) -> Checked {
         Err(e) => c.problems.push((true, format!("{e:#}"))),
     }
     let graph_file = dir.join("graph.xml");
-    match exhibit::open_graph(dir) {
-        Ok(None) => c.sound.push("no graph.xml: the model without a story".into()),
-        Ok(Some((graph, problems))) => {
-            let mut langs = std::collections::BTreeSet::new();
-            for n in &graph.nodes {
-                langs.extend(n.title.0.keys().cloned());
-            }
-            c.sound.push(format!(
-                "story: {} nodes, {} edges, languages {}",
-                graph.nodes.len(),
-                graph.edges.len(),
-                langs.into_iter().collect::<Vec<_>>().join(", ")
-            ));
-            for p in problems {
-                c.problems.push((p.dropped, format!("{}: {p}", graph_file.display())));
-            }
-            let mut decoded = 0;
-            for n in &graph.nodes {
-                for rel in n.narration.0.values() {
-                    // A path that cannot be used is among the problems above already.
-                    let Ok(path) = crate::media::resolve(dir, rel) else { continue };
-                    match crate::audio::decode(&path) {
-                        Ok(_) => decoded += 1,
-                        Err(e) => {
-                            c.problems.push((true, format!("{}: node '{}': {e}", graph_file.display(), n.id)))
-                        }
-                    }
-                }
-            }
-            c.sound.push(format!("{decoded} narration(s) decode"));
-        }
-        Err(e) => c.problems.push((true, format!("{e:#}; the kiosk shows the model without its story"))),
+    if !graph_file.exists() {
+        c.sound.push("no graph.xml: the model without a story".into());
+        return c;
     }
+    let read = std::fs::read_to_string(&graph_file).map_err(|e| e.to_string());
+    let (graph, problems) = match read.and_then(|t| InfoGraph::from_xml(&t).map_err(|e| e.to_string())) {
+        Ok(g) => g,
+        Err(e) => {
+            let e = format!("{}: {e}; the kiosk shows the model without its story", graph_file.display());
+            c.problems.push((true, e));
+            return c;
+        }
+    };
+    let langs: std::collections::BTreeSet<&String> =
+        graph.nodes.iter().flat_map(|n| n.title.0.keys()).collect();
+    c.sound.push(format!(
+        "story: {} nodes, {} edges, languages {}",
+        graph.nodes.len(),
+        graph.edges.len(),
+        langs.into_iter().map(String::as_str).collect::<Vec<_>>().join(", ")
+    ));
+    // A dropped node or edge, and an ignored light, box or path, are left out; a clamped
+    // importance or a cut text are shown as corrected.
+    for p in problems {
+        let left_out = p.dropped || p.msg.ends_with("; ignored");
+        c.problems.push((left_out, format!("{}: {p}", graph_file.display())));
+    }
+    // Every media file opened as the kiosk opens it (images decoded, narrations decoded whole):
+    // one it cannot use, it leaves out.
+    let (mut images, mut narrations) = (BTreeMap::new(), 0);
+    for n in &graph.nodes {
+        let files = n.overlay.0.values().chain(&n.thumbnail).chain(&n.roi_mask).map(|f| (f, false));
+        for (rel, narration) in files.chain(n.narration.0.values().map(|f| (f, true))) {
+            // The decoders' errors name the whole path; the exhibit's own path says it here.
+            let opened = crate::media::resolve(dir, rel).and_then(|path| {
+                let own =
+                    |e: String, prefix: String| e.strip_prefix(&prefix).map_or(e.clone(), str::to_string);
+                if narration {
+                    let decoded = crate::audio::decode(&path);
+                    decoded
+                        .map(|_| narrations += 1)
+                        .map_err(|e| own(e, format!("narration {}: ", path.display())))
+                } else {
+                    let img = crate::media::read_image(&path)
+                        .map_err(|e| own(e, format!("{}: ", path.display())))?;
+                    images.insert(rel.clone(), img.dimensions());
+                    Ok(())
+                }
+            });
+            if let Err(e) = opened {
+                let what = if narration { "narration" } else { "image" };
+                c.problems
+                    .push((true, format!("{}: node '{}': {what} {rel}: {e}", graph_file.display(), n.id)));
+            }
+        }
+    }
+    // What the kiosk shows anyway: an overlay at another aspect than the view's.
+    let sized = |rel: &str| Ok(images.get(rel).copied());
+    for p in graph.check_files(exhibit::VIEW_ASPECT, &sized) {
+        c.problems.push((false, format!("{}: {p}", graph_file.display())));
+    }
+    c.sound.push(format!("{} image(s) and {narrations} narration(s) open", images.len()));
     c
 }

@@ -20,9 +20,11 @@ pub fn model_file(dir: &Path) -> anyhow::Result<PathBuf> {
         .collect();
     entries.sort();
     let name = |p: &PathBuf| p.file_name().and_then(|n| n.to_str()).unwrap_or("").to_ascii_lowercase();
-    let stores: Vec<&PathBuf> = entries.iter().filter(|p| name(p).ends_with(".kstore")).collect();
+    // Hidden files (`._bust.obj`, left by macOS on a USB stick) are not models.
+    let entries: Vec<&PathBuf> = entries.iter().filter(|p| !name(p).starts_with('.')).collect();
+    let stores: Vec<&PathBuf> = entries.iter().copied().filter(|p| name(p).ends_with(".kstore")).collect();
     let scans: Vec<&PathBuf> =
-        entries.iter().filter(|p| SCANS.iter().any(|e| name(p).ends_with(e))).collect();
+        entries.iter().copied().filter(|p| SCANS.iter().any(|e| name(p).ends_with(e))).collect();
     let (found, what) = if stores.is_empty() { (scans, "scans") } else { (stores, "stores") };
     match found[..] {
         [one] => Ok(one.clone()),
@@ -49,7 +51,7 @@ pub fn open_model(dir: &Path) -> anyhow::Result<MappedStore> {
 /// stores of earlier versions of that scan ([`sweep_cache`]).
 pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
     let file = model_file(dir)?;
-    if file.extension().is_some_and(|e| e == "kstore") {
+    if file.extension().is_some_and(|e| e.eq_ignore_ascii_case("kstore")) {
         return crate::open_store(&file);
     }
     let options = ImportOptions::default();
@@ -471,6 +473,8 @@ mod tests {
         assert!(e.contains("*.glb"), "{e}");
         std::fs::write(dir.path().join("scene.bin"), b"").expect("write");
         std::fs::write(dir.path().join("vase.glb"), b"").expect("write");
+        // A hidden file beside it (macOS leaves `._NAME` on a USB stick) is not a second model.
+        std::fs::write(dir.path().join("._vase.glb"), b"").expect("write");
         assert_eq!(model_file(dir.path()).expect("a glb"), dir.path().join("vase.glb"));
         std::fs::write(dir.path().join("vase.kstore"), b"").expect("write");
         assert_eq!(model_file(dir.path()).expect("a store"), dir.path().join("vase.kstore"));

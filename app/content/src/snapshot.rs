@@ -1,4 +1,4 @@
-//! `kiosk snapshot`: one frame of a model, offscreen, to a PNG; the thumbnails and live view of
+//! `kiosk snapshot`: one frame of a model, offscreen, to an image; the thumbnails and live view of
 //! the authoring tool; and the light a view is drawn in.
 
 use crate::MappedStore;
@@ -24,10 +24,11 @@ pub fn snapshot(
     cut.update(store, &view, &CutParams { tolerance_px, max_changes: usize::MAX, ..CutParams::default() });
     let nodes = cut.visible_nodes(store, &view);
     let (image, _) = renderer.render_image(gpu, store, &nodes, camera, size, settings)?;
-    if let Some((id, why)) = renderer.corrupt_nodes().iter().next() {
+    let corrupt: Vec<_> = renderer.corrupt_nodes().iter().filter(|(id, _)| nodes.contains(id)).collect();
+    if let Some((id, why)) = corrupt.first() {
         anyhow::bail!(
-            "{why} ({} node(s) of this view fail their check, node {id} first; `kiosk verify` checks them all)",
-            renderer.corrupt_nodes().len()
+            "{why} ({} node(s) of this view fail their check, node {id} first; `kiosk check --full` reads them all)",
+            corrupt.len()
         );
     }
     Ok(image)

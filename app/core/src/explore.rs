@@ -14,7 +14,8 @@
 //! field of view eases back to the configured one ([`FOV_EASE_SECS`]).
 //!
 //! The distance: the eye may be at most [`ExploreSettings::max_distance_factor`] framing
-//! distances (the initial view's distance, the whole model in view) from the model's centre.
+//! distances (the initial view's distance, the whole model in view) from the model's centre (the
+//! start view's target: the middle of the model's box in its upright frame).
 //! Beyond it (any controller), zooming out is damped to nothing at 1.5 times the bound and the
 //! camera eases back to the bound ([`DISTANCE_EASE_SECS`]), moving straight toward the centre
 //! with its view direction kept.
@@ -201,7 +202,8 @@ impl<'a, B: AsRef<[u8]>> Explorer<'a, B> {
         let min_distance = settings.min_distance_fraction * diag;
         let aspect = f64::from(settings.size_px.0) / f64::from(settings.size_px.1.max(1));
         let cam0 = start_camera(store, settings.fov_y, settings.up, settings.front);
-        let center = store.to_model(store.bbox().center());
+        // The start view's target: the centre of the model's box in its upright frame.
+        let center = cam0.target;
         // At least the framing distance (NaN: that); infinite: no bound.
         let max_distance = settings.max_distance_factor.max(1.0) * (cam0.eye - center).length();
         let mut cut = Cut::root(store);

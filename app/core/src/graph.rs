@@ -545,9 +545,10 @@ impl InfoGraph {
         let mut edges = Vec::new();
         let mut pairs = BTreeSet::new();
         for e in raw.edges {
-            let (Some(&from), Some(&to)) = (index.get(e.from.as_str()), index.get(e.to.as_str())) else {
-                let unknown = if index.contains_key(e.from.as_str()) { &e.to } else { &e.from };
-                let why = if seen.contains(unknown.trim()) {
+            // Ids are trimmed as the nodes' are.
+            let (Some(&from), Some(&to)) = (index.get(e.from.trim()), index.get(e.to.trim())) else {
+                let unknown = if index.contains_key(e.from.trim()) { e.to.trim() } else { e.from.trim() };
+                let why = if seen.contains(unknown) {
                     "names a node dropped above"
                 } else {
                     "names an unknown node"

@@ -284,7 +284,8 @@ pub struct FrameStats {
     pub uploads: usize,
     /// Bytes uploaded this frame.
     pub uploaded_bytes: u64,
-    /// Visible nodes drawn as a cached ancestor (not uploaded yet).
+    /// Visible nodes drawn as a cached ancestor: not uploaded yet (over the upload budget), or
+    /// corrupt (every frame they are visible).
     pub substituted: usize,
     /// Bytes held by the cache after the frame.
     pub cache_bytes: u64,

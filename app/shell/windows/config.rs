@@ -189,12 +189,12 @@ impl Config {
         if !(0.0..=1.0).contains(&self.volume) {
             return Err(format!("volume = {}: must be in [0, 1]", self.volume));
         }
-        if self.tolerance_px.is_nan() || self.tolerance_px <= 0.0 {
-            return Err(format!("tolerance_px = {}: must be positive", self.tolerance_px));
+        if !tolerance_ok(self.tolerance_px) {
+            return Err(format!("tolerance_px = {}: must be a positive number of pixels", self.tolerance_px));
         }
         self.popularity.check()?;
         self.splat_mode().map_err(|e| format!("splats: {e}"))?;
-        if !(0.0..=4.0).contains(&self.edl) {
+        if !edl_ok(self.edl) {
             return Err(format!("edl = {}: must be in [0, 4]", self.edl));
         }
         Ok(())
@@ -236,6 +236,17 @@ impl Config {
         dirs.sort();
         Ok(dirs)
     }
+}
+
+/// A cut tolerance the renderer can use (`tolerance_px`, `kiosk snapshot --tolerance`): a
+/// positive, finite number of pixels.
+pub fn tolerance_ok(px: f32) -> bool {
+    px > 0.0 && px.is_finite()
+}
+
+/// An eye-dome lighting strength (`edl`, `kiosk snapshot --edl`): 0 (off) to 4.
+pub fn edl_ok(strength: f32) -> bool {
+    (0.0..=4.0).contains(&strength)
 }
 
 #[cfg(test)]

@@ -98,9 +98,17 @@ pub struct Exhibit {
     pub up: glam::DVec3,
     /// The side its start view looks at (`exhibit.toml`), if it says.
     pub front: Option<glam::DVec3>,
+    /// Its start view, framed once (the gallery's turntable asks at every frame, and a turned
+    /// model's framing reads samples of the store).
+    start: std::cell::OnceCell<Camera>,
 }
 
 impl Exhibit {
+    /// Its start view (`fov_y`: the kiosk's, the same for the whole run).
+    pub fn start_camera(&self, fov_y: f64) -> Camera {
+        *self.start.get_or_init(|| start_camera(&self.store, fov_y, self.up, self.front))
+    }
+
     /// The title shown in the gallery: the first node's title, else the directory name.
     pub fn title(&self, lang: &str) -> String {
         self.graph
@@ -149,7 +157,14 @@ pub fn load_exhibits(config: &Config) -> anyhow::Result<Vec<Exhibit>> {
             }
         };
         tracing::info!("exhibit {}: {} samples", dir.display(), store.header().leaf_point_count);
-        out.push(Exhibit { dir, store, graph, up: pose.up, front: pose.front });
+        out.push(Exhibit {
+            dir,
+            store,
+            graph,
+            up: pose.up,
+            front: pose.front,
+            start: std::cell::OnceCell::new(),
+        });
     }
     anyhow::ensure!(!out.is_empty(), "no exhibit could be loaded from {}", config.content.display());
     Ok(out)
@@ -585,6 +600,14 @@ impl Running<'_> {
         report_once(&mut self.reported, what, e);
     }
 
+    /// Logs, once each, the nodes of `ex`'s model the renderer found corrupt.
+    fn report_corrupt(&mut self, ex: &Exhibit) {
+        for why in self.gfx.renderer.corrupt_nodes().values() {
+            let what = format!("{} (its model)", ex.dir.display());
+            report_once(&mut self.reported, &what, &format!("{why}; drawn as its nearest sound ancestor"));
+        }
+    }
+
     /// Renders both windows' canvases and presents them.
     fn render(&mut self, exhibits: &[Exhibit], t: f64) -> anyhow::Result<()> {
         self.rendered += 1;
@@ -637,7 +660,7 @@ impl Running<'_> {
             None => {
                 let fov = self.kiosk.settings.explore.fov_y;
                 // The gallery's turntable, about the model's own up axis.
-                let c0 = start_camera(store, fov, ex.up, ex.front);
+                let c0 = ex.start_camera(fov);
                 let turn = glam::DQuat::from_axis_angle(ex.up, 0.15 * t);
                 camera = Camera { eye: c0.target + turn * (c0.eye - c0.target), up: turn * c0.up, ..c0 };
                 settings = lit(settings, start_light(&c0));
@@ -660,16 +683,7 @@ impl Running<'_> {
         let canvas = &self.gfx.projection.canvas;
         match self.gfx.renderer.render(&self.gfx.gpu, store, &nodes, &camera, &canvas.view, size, &settings) {
             Err(e) => self.report("render", &e),
-            Ok(stats) if stats.corrupt > 0 => {
-                for why in self.gfx.renderer.corrupt_nodes().values() {
-                    let what = format!("{} (its model)", ex.dir.display());
-                    report_once(
-                        &mut self.reported,
-                        &what,
-                        &format!("{why}; drawn as its nearest sound ancestor"),
-                    );
-                }
-            }
+            Ok(stats) if stats.corrupt > 0 => self.report_corrupt(ex),
             Ok(_) => {}
         }
         // The suggestion inset: fade in, the path from here to the proposed view, hold, fade out.
@@ -794,13 +808,20 @@ impl Running<'_> {
                 &CutParams { tolerance_px: 2.0, max_changes: usize::MAX, ..CutParams::default() },
             );
             let nodes = cut.visible_nodes(&ex.store, &v);
-            let start =
-                start_light(&start_camera(&ex.store, self.kiosk.settings.explore.fov_y, ex.up, ex.front));
+            let start = start_light(&ex.start_camera(self.kiosk.settings.explore.fov_y));
             let settings = lit(self.render_settings, node_light(n, start));
-            self.gfx.renderer.render_image(&self.gfx.gpu, &ex.store, &nodes, &n.view, size, &settings).ok()
+            let (img, stats) = self
+                .gfx
+                .renderer
+                .render_image(&self.gfx.gpu, &ex.store, &nodes, &n.view, size, &settings)
+                .ok()?;
+            if stats.corrupt > 0 {
+                self.report_corrupt(ex);
+            }
+            Some(img)
         });
         match img {
-            Some((img, _)) => Some(self.gfx.proj_painter.put_image(&key, &img)),
+            Some(img) => Some(self.gfx.proj_painter.put_image(&key, &img)),
             None => {
                 self.report("thumbnail", &format!("node {} of {}", n.id, ex.dir.display()));
                 None

@@ -89,26 +89,48 @@ pub fn upright_bounds<B: AsRef<[u8]>>(store: &Store<B>, up: DVec3, front: DVec3)
 
 /// The largest `dir · (p − mid)` over the store's samples p (local coordinates), exactly, by
 /// branch and bound: the node whose box reaches farthest along `dir` is opened first, and the
-/// search stops when no box left reaches beyond the farthest sample found (a few nodes from the
-/// root to a leaf, whatever the size of the model).
+/// search stops when no box left reaches beyond the farthest sample found. Along an axis of
+/// the file that is a few nodes from the root to a leaf; along a direction oblique to a flat
+/// side of the model (the base of a tilted statue) every node whose box touches that side may
+/// be opened, so a caller that asks often keeps the result. A sample is counted no farther than
+/// its node's box reaches: the store's index is sound (it was checked when opened), its splats
+/// are not read before, and a corrupted one must not make the model a speck.
 fn farthest<B: AsRef<[u8]>>(store: &Store<B>, dir: DVec3, mid: DVec3) -> f64 {
+    /// A node to open, ordered by how far its box reaches.
+    struct Open(f64, NodeId);
+    impl PartialEq for Open {
+        fn eq(&self, other: &Self) -> bool {
+            self.cmp(other).is_eq()
+        }
+    }
+    impl Eq for Open {}
+    impl PartialOrd for Open {
+        fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+            Some(self.cmp(other))
+        }
+    }
+    impl Ord for Open {
+        fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+            self.0.total_cmp(&other.0).then(self.1.cmp(&other.1))
+        }
+    }
     let reach = |id: NodeId| {
         let b = store.node(id).bbox();
-        (0..3)
+        let r: f64 = (0..3)
             .map(|a| (dir[a] * (f64::from(b.min[a]) - mid[a])).max(dir[a] * (f64::from(b.max[a]) - mid[a])))
-            .sum()
+            .sum();
+        Open(r, id)
     };
     let mut best = f64::NEG_INFINITY;
-    let mut open: Vec<(f64, NodeId)> = vec![(reach(store.root()), store.root())];
-    while let Some(i) = (0..open.len()).max_by(|&a, &b| open[a].0.total_cmp(&open[b].0)) {
-        let (bound, id) = open.swap_remove(i);
+    let mut open = std::collections::BinaryHeap::from([reach(store.root())]);
+    while let Some(Open(bound, id)) = open.pop() {
         if bound <= best {
             break;
         }
         for s in store.splats(id) {
-            best = best.max(dir.dot(s.position().as_dvec3() - mid));
+            best = best.max(dir.dot(s.position().as_dvec3() - mid).min(bound));
         }
-        open.extend(store.node(id).children.iter().filter(|&&c| c != NONE).map(|&c| (reach(c), c)));
+        open.extend(store.node(id).children.iter().filter(|&&c| c != NONE).map(|&c| reach(c)));
     }
     best
 }

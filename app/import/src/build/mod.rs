@@ -338,11 +338,13 @@ impl Builder {
                 p.to_array()
                     .map(|c| {
                         // Seven digits are plenty to see what is wrong.
-                        let c = c as f32;
-                        if c == 0.0 || (1e-3..1e7).contains(&c.abs()) {
-                            format!("{c}")
+                        let short = c as f32;
+                        if short == 0.0 || (1e-3..1e7).contains(&short.abs()) {
+                            format!("{short}")
+                        } else if short.is_finite() {
+                            format!("{short:e}")
                         } else {
-                            format!("{c:e}")
+                            format!("{c:.6e}")
                         }
                     })
                     .join(", ")

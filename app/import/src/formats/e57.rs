@@ -69,7 +69,7 @@ fn message(e: &::e57::Error) -> String {
     while let Some(c) = cause {
         if c.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::UnexpectedEof)
         {
-            return "the file ends before the data its header announces (cut short?)".into();
+            return super::CUT_SHORT.into();
         }
         cause = c.source();
     }

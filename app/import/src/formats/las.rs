@@ -62,9 +62,7 @@ fn message(e: &::las::Error) -> String {
         _ => None,
     };
     match io {
-        Some(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
-            "the file ends before the data its header announces (cut short?)".into()
-        }
+        Some(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => super::CUT_SHORT.into(),
         Some(io) => format!("read error: {io}"),
         None => e.to_string(),
     }

@@ -54,6 +54,10 @@ impl From<std::io::Error> for DetectError {
     }
 }
 
+/// What a survey file that ends before the data its header announces (a copy cut short) gets
+/// for an error, whichever decoder found it.
+pub(crate) const CUT_SHORT: &str = "the file ends before the data its header announces (cut short?)";
+
 /// The formats the importer reads, for error messages.
 pub const SUPPORTED: &str = "PLY (.ply, .ply.gz), OBJ (.obj, .obj.gz, with MTL materials), glTF 2.0 (.gltf, .glb), \
      LAS and LAZ (.las, .laz) and E57 (.e57)";

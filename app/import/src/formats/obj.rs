@@ -154,7 +154,7 @@ pub fn read_obj_in<E>(
                             return Err(unusable(
                                 line,
                                 format!(
-                                    "vertex index {raw} refers before the first vertex: {count} 'v' lines so far"
+                                    "vertex index {raw}: OBJ counts vertices from 1 (or back from -1), and {count} 'v' lines come before it"
                                 ),
                             ));
                         }
