@@ -64,6 +64,10 @@ impl Default for GestureSettings {
     }
 }
 
+/// Zoom (log distance) of a tap on the zoom bar: 1.42 times closer or farther, the step of a
+/// mouse user's click on its "+" or "−".
+pub const ZOOM_BAR_STEP: f64 = 0.35;
+
 fn default_zoom_bar_top() -> f64 {
     0.16
 }
@@ -239,8 +243,15 @@ impl Gestures {
                 self.moved(e.id);
             }
             TouchKind::Up => {
-                if self.fingers.remove(&e.id).is_none() {
-                    return;
+                let Some(finger) = self.fingers.remove(&e.id) else { return };
+                // A tap on the zoom bar steps: on its upper half (its "+") closer, on its lower
+                // half (its "−") back. A slide zooms as it goes (`moved`).
+                if let Mode::ZoomBar { .. } = self.mode
+                    && finger.pos == finger.start
+                    && e.t - finger.down_t < self.settings.long_press_secs
+                {
+                    let middle = (self.settings.zoom_bar_top + 1.0) * 0.5;
+                    self.pending.zoom += if finger.pos.y < middle { ZOOM_BAR_STEP } else { -ZOOM_BAR_STEP };
                 }
                 if let Mode::Menu { origin } = self.mode {
                     let d = p - origin;
@@ -431,6 +442,29 @@ mod tests {
         // Held still away from the start: the camera keeps moving (joystick).
         let j = g.frame(0.2, 1.0 / 60.0);
         assert_eq!(i.hover, j.hover);
+    }
+
+    #[test]
+    fn a_tap_on_the_zoom_bar_steps_a_slide_zooms_as_it_goes() {
+        let mut g = Gestures::new(GestureSettings::default());
+        let bar_x = 0.02;
+        // A tap on the "+" half: one step closer; on the "−" half: one step back.
+        for (y, step) in [(0.2, ZOOM_BAR_STEP), (0.95, -ZOOM_BAR_STEP)] {
+            g.event(&ev(0.0, TouchKind::Down, 1, bar_x, y));
+            g.event(&ev(0.1, TouchKind::Up, 1, bar_x, y));
+            assert_eq!(g.frame(0.1, 1.0 / 60.0).zoom, step, "a tap at y {y}");
+        }
+        // A slide zooms by its length and does not also step when it lifts.
+        g.event(&ev(1.0, TouchKind::Down, 1, bar_x, 0.8));
+        g.event(&ev(1.1, TouchKind::Move, 1, bar_x, 0.7));
+        let slid = g.frame(1.1, 1.0 / 60.0).zoom;
+        assert!((slid - 0.1 * GestureSettings::default().zoom_bar_gain).abs() < 1e-9, "{slid}");
+        g.event(&ev(1.2, TouchKind::Up, 1, bar_x, 0.7));
+        assert_eq!(g.frame(1.2, 1.0 / 60.0).zoom, 0.0);
+        // A finger held on the bar is not a tap.
+        g.event(&ev(2.0, TouchKind::Down, 1, bar_x, 0.2));
+        g.event(&ev(3.0, TouchKind::Up, 1, bar_x, 0.2));
+        assert_eq!(g.frame(3.0, 1.0 / 60.0).zoom, 0.0);
     }
 
     #[test]
