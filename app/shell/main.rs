@@ -479,34 +479,25 @@ fn main() -> anyhow::Result<()> {
     Ok(())
 }
 
+/// A number option `s` that `ok` accepts; `what` says which numbers are, in the error.
+fn number_in(s: &str, ok: fn(f32) -> bool, what: &str) -> Result<f32, String> {
+    let v: f32 = s.parse().map_err(|e| format!("{e}"))?;
+    if ok(v) { Ok(v) } else { Err(format!("{v}: {what}")) }
+}
+
 /// `--edl`: as `edl` in kiosk.toml, 0 to 4.
 fn edl_strength(s: &str) -> Result<f32, String> {
-    let v: f32 = s.parse().map_err(|e| format!("{e}"))?;
-    if kiosk::windows::config::edl_ok(v) {
-        Ok(v)
-    } else {
-        Err(format!("{v}: the strength is between 0 (off) and 4"))
-    }
+    number_in(s, kiosk::windows::config::edl_ok, "the strength is between 0 (off) and 4")
 }
 
 /// `--tolerance`: as `tolerance_px` in kiosk.toml, a positive number of pixels.
 fn tolerance_px(s: &str) -> Result<f32, String> {
-    let v: f32 = s.parse().map_err(|e| format!("{e}"))?;
-    if kiosk::windows::config::tolerance_ok(v) {
-        Ok(v)
-    } else {
-        Err(format!("{v}: the tolerance is a positive number of pixels"))
-    }
+    number_in(s, kiosk::windows::config::tolerance_ok, "the tolerance is a positive number of pixels")
 }
 
 /// `--texel-density`: a positive number up to 64.
 fn texel_density(s: &str) -> Result<f32, String> {
-    let v: f32 = s.parse().map_err(|e| format!("{e}"))?;
-    if v > 0.0 && v <= 64.0 {
-        Ok(v)
-    } else {
-        Err(format!("{v}: the texel density is more than 0 and at most 64"))
-    }
+    number_in(s, |v| v > 0.0 && v <= 64.0, "the texel density is more than 0 and at most 64")
 }
 
 /// Parses `eye_x,eye_y,eye_z,target_x,target_y,target_z,up_x,up_y,up_z,fov_degrees`.
