@@ -300,8 +300,8 @@ fn main() -> anyhow::Result<()> {
         }
         Command::Verify { store } => {
             let s = kiosk_content::open_store(&store)?;
-            for id in 0..s.nodes().len() as u32 {
-                s.verify_node(id).with_context(|| format!("{}", store.display()))?;
+            if let Some((_, e)) = s.failing_nodes().next() {
+                return Err(e).with_context(|| format!("{}", store.display()));
             }
             let h = s.header();
             println!(

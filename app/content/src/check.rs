@@ -44,9 +44,7 @@ pub fn check(dir: &Path, cache: &Path, full: bool) -> Checked {
                 store.levels()
             ));
             if full {
-                let bad: Vec<String> = (0..store.nodes().len() as u32)
-                    .filter_map(|id| store.verify_node(id).err().map(|e| e.to_string()))
-                    .collect();
+                let bad: Vec<String> = store.failing_nodes().map(|(_, e)| e.to_string()).collect();
                 match bad.first() {
                     None => c.sound.push(format!("every node's checksum matches ({} nodes)", h.node_count)),
                     Some(first) => c.problems.push((

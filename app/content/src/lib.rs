@@ -1,7 +1,6 @@
 //! What both apps need of an exhibit on disk — the kiosk (`kiosk`) and the authoring tool
 //! (`author`): stores opened through memory maps, exhibits (model, story, pose, ROI masks) and
-//! their check,
-//! imports with their lock and persistent cache, media confined to their exhibit, offscreen
+//! their check, imports with their lock and persistent cache, media confined to their exhibit, offscreen
 //! snapshots and their light, narration playback (kira), and the visit statistics' files. No
 //! window, event loop or terminal here: those are each app's own.
 

@@ -352,25 +352,22 @@ impl Gestures {
             Mode::Two { centroid, dist, angle } => {
                 let Some(Mode::Two { centroid: c2, dist: d2, angle: a2 }) = self.two_state() else { return };
                 let dc = c2 - centroid;
-                let before = (self.pending.pan, self.pending.zoom, self.pending.twist);
                 // Move the camera with the fingers' centroid: right = +x, up = −y on screen.
-                self.pending.pan.0 += dc.x * self.settings.pan_gain;
-                self.pending.pan.1 -= dc.y * self.settings.pan_gain;
-                if dist > 1e-6 && d2 > 1e-6 {
-                    self.pending.zoom += (d2 / dist).ln() * self.settings.pinch_gain;
-                }
+                let pan = (dc.x * self.settings.pan_gain, -dc.y * self.settings.pan_gain);
+                let zoom =
+                    if dist > 1e-6 && d2 > 1e-6 { (d2 / dist).ln() * self.settings.pinch_gain } else { 0.0 };
                 let mut da = a2 - angle;
                 if da > std::f64::consts::PI {
                     da -= std::f64::consts::TAU;
                 } else if da < -std::f64::consts::PI {
                     da += std::f64::consts::TAU;
                 }
-                self.pending.twist -= da;
-                let t = &mut self.two_since_frame;
-                t.pan.0 += self.pending.pan.0 - before.0.0;
-                t.pan.1 += self.pending.pan.1 - before.0.1;
-                t.zoom += self.pending.zoom - before.1;
-                t.twist += self.pending.twist - before.2;
+                for i in [&mut self.pending, &mut self.two_since_frame] {
+                    i.pan.0 += pan.0;
+                    i.pan.1 += pan.1;
+                    i.zoom += zoom;
+                    i.twist -= da;
+                }
                 self.mode = Mode::Two { centroid: c2, dist: d2, angle: a2 };
             }
             Mode::Menu { origin } => {

@@ -733,9 +733,9 @@ impl Renderer {
                 }
                 continue;
             }
-            if within {
+            let mut a = store.node(id).parent;
+            let stand_in = if within {
                 // Corrupt: its nearest sound ancestor stands in, uploaded if need be.
-                let mut a = store.node(id).parent;
                 while a != u32::MAX && !self.cache.contains_key(&a) {
                     if sound(self, a, stats) {
                         upload(self, a, stats);
@@ -743,29 +743,22 @@ impl Renderer {
                     }
                     a = store.node(a).parent;
                 }
-                if let Some(e) = self.cache.get_mut(&a) {
-                    e.last_used = frame;
-                    stats.substituted += 1;
-                    if seen.insert(a) {
-                        draw.push(a);
-                    }
-                }
-                continue;
-            }
-            // Over budget: the nearest cached ancestor stands in (the root, at worst, uploaded if
-            // sound).
-            let mut a = store.node(id).parent;
-            while a != u32::MAX && !self.cache.contains_key(&a) {
-                a = store.node(a).parent;
-            }
-            let stand_in = if a == u32::MAX {
-                let root = store.root();
-                if !self.cache.contains_key(&root) && sound(self, root, stats) {
-                    upload(self, root, stats);
-                }
-                root
-            } else {
                 a
+            } else {
+                // Over budget: the nearest cached ancestor stands in (the root, at worst,
+                // uploaded if sound).
+                while a != u32::MAX && !self.cache.contains_key(&a) {
+                    a = store.node(a).parent;
+                }
+                if a == u32::MAX {
+                    let root = store.root();
+                    if !self.cache.contains_key(&root) && sound(self, root, stats) {
+                        upload(self, root, stats);
+                    }
+                    root
+                } else {
+                    a
+                }
             };
             if let Some(e) = self.cache.get_mut(&stand_in) {
                 e.last_used = frame;

@@ -378,6 +378,12 @@ impl<B: AsRef<[u8]>> Store<B> {
         Ok(())
     }
 
+    /// The nodes whose data fail [`Store::verify_node`], in index order, with why (reads every
+    /// node it is asked for).
+    pub fn failing_nodes(&self) -> impl Iterator<Item = (NodeId, StoreError)> + '_ {
+        (0..self.nodes().len() as NodeId).filter_map(|id| self.verify_node(id).err().map(|e| (id, e)))
+    }
+
     /// Total bytes of the store.
     pub fn len_bytes(&self) -> u64 {
         self.header.file_len
