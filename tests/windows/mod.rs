@@ -146,15 +146,18 @@ fn region_difference(shot: &RgbaImage, rect: [f32; 4], img: &RgbaImage) -> f64 {
 #[test]
 fn a_visit_through_the_real_windows() {
     // Explore (tap), look, long press (radial menu), point up and release (go-to the first
-    // candidate), watch its overlay.
+    // candidate), watch its overlay, then open the menu over it and let go.
     let script = Script::new()
         .wait(0.3)
         .tap(1, 0.5, 0.86)
         .wait(1.2)
         .radial_pick(2, (0.5, 0.5), 1.3, (0.5, 0.3))
         .wait(4.0)
+        .down(3, 0.5, 0.5)
+        .wait(1.2)
+        .cancel(3)
         .cancel(99);
-    let run = run(&script, &[0.2, 1.5, 2.7, 6.8], "", 1.0);
+    let run = run(&script, &[0.2, 1.5, 2.7, 6.8, 8.1], "", 1.0);
     // Gallery: the model turns on the projection, the controller shows the gallery card.
     assert_eq!(run.frame(0.2)["mode"], "gallery");
     let gallery_proj = run.shot("projection", 0.2);
@@ -213,6 +216,13 @@ fn a_visit_through_the_real_windows() {
     let band = (70, 400, 730, 470);
     let captions = bright(&run.shot("controller", 6.8), band, 150.0);
     assert!(captions > 0.02 && captions > 4.0 * bright(&ctrl, band, 150.0), "captions: {captions:.3}");
+    // The menu opened over the overlay: the overlay stays on display but fades back, so that
+    // the menu's labels do not cross its drawings.
+    let f = run.frame(8.1);
+    assert_eq!(f["explore"]["overlay"], Value::String(candidates[0].clone()), "{f}");
+    assert!(f["explore"]["menu"]["candidates"].is_array(), "menu open at 8.1 s: {f}");
+    let under_menu = overlay_match(&run.shot("projection", 8.1), &overlay);
+    assert!(under_menu < 0.2, "overlay under the menu: {under_menu:.2} of its strokes at full colour");
 }
 
 #[test]

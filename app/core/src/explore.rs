@@ -456,6 +456,9 @@ impl<'a, B: AsRef<[u8]>> Explorer<'a, B> {
             }
         }
         let menu_open = self.gestures.menu_open();
+        if menu_open && rec_event == RecEvent::Tick {
+            rec_event = RecEvent::MenuOpen;
+        }
         if let (Some(r), Some(g)) = (self.rec.as_ref(), graph) {
             intent = guide_intent(r, g, &ctx, intent, &self.controller);
         }

@@ -166,6 +166,9 @@ pub enum RecEvent {
     LongPress,
     /// The radial menu picked this node.
     MenuSelect(usize),
+    /// A frame with the radial menu open: the visitor is choosing, so nothing is accepted for
+    /// them (a view they happen to be near does not start a flight under the menu).
+    MenuOpen,
 }
 
 /// What the shell must do (and the trace records).
@@ -637,7 +640,9 @@ impl Recommender {
                 }
             }
             RecState::Attract { node, since } => {
-                if view_distance(&graph.nodes[node].view, ctx) <= s.accept_distance {
+                if event != RecEvent::MenuOpen
+                    && view_distance(&graph.nodes[node].view, ctx) <= s.accept_distance
+                {
                     self.go_to(node, now, false, &mut fx);
                 } else if now - since >= s.attract_secs {
                     fx.push(Effect::ShowInset { node });
@@ -648,7 +653,8 @@ impl Recommender {
             }
             RecState::Propose { node, since } => {
                 if event == RecEvent::LongPress
-                    || view_distance(&graph.nodes[node].view, ctx) <= s.accept_distance
+                    || (event != RecEvent::MenuOpen
+                        && view_distance(&graph.nodes[node].view, ctx) <= s.accept_distance)
                 {
                     self.go_to(node, now, false, &mut fx);
                 } else if now - since >= s.propose_secs {
@@ -1127,6 +1133,26 @@ mod tests {
         rec.step(&g, &c, RecEvent::Tick, 10.0, &mut rng);
         assert!(matches!(rec.state, RecState::Display { node: 1, .. }), "{:?}", rec.state);
         assert!(rec.stats[1].visited && !rec.stats[0].visited);
+    }
+
+    #[test]
+    fn nothing_is_accepted_by_distance_while_the_visitor_chooses_in_the_menu() {
+        let samples = wall();
+        let c = ctx(front(), &samples);
+        let g = graph_of(vec![node_at("here", front().eye, DVec3::ZERO, 0.8)]);
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(5);
+        for start in [RecState::Attract { node: 0, since: 0.0 }, RecState::Propose { node: 0, since: 0.0 }] {
+            let mut rec = Recommender::new(&g, RecSettings::default(), 0.0);
+            rec.state = start;
+            assert!(rec.step(&g, &c, RecEvent::MenuOpen, 1.0, &mut rng).is_empty());
+            assert_eq!(rec.state, start, "the menu is open: the view the visitor is at waits");
+            let fx = rec.step(&g, &c, RecEvent::Tick, 1.1, &mut rng);
+            assert_eq!(
+                fx.last(),
+                Some(&Effect::StartGoTo { node: 0, duration: 2.0 }),
+                "menu closed: {start:?}"
+            );
+        }
     }
 
     #[test]

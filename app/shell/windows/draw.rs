@@ -353,6 +353,10 @@ pub fn inset(p: &egui::Painter, screen: Rect, inset: &Inset, hint: &str) {
     );
 }
 
+/// Opacity of a node's overlay and caption while the radial menu is open over them: the menu's
+/// labels would otherwise cross the overlay's.
+pub const UNDER_MENU: f32 = 0.2;
+
 /// Where the radial menu puts candidate `i` of `n`: clockwise from the top around the centre.
 pub fn slot_rect(screen: Rect, i: usize, n: usize) -> Rect {
     let a = i as f32 * std::f32::consts::TAU / n.max(1) as f32;

@@ -767,12 +767,14 @@ impl Running<'_> {
         self.gfx.proj_painter.paint(&self.gfx.gpu, &view, size, None, t, |ctx| {
             let screen = ctx.content_rect();
             let p = ctx.layer_painter(egui::LayerId::background());
+            // Under the open menu the overlay and caption fade back, so that its labels read.
+            let dim = if radial.is_some() { draw::UNDER_MENU } else { 1.0 };
             if let Some((tex, alpha)) = &overlay {
-                draw::overlay(&p, screen, tex, *alpha);
+                draw::overlay(&p, screen, tex, alpha * dim);
             }
             match &caption {
-                Some((title, text, alpha)) => draw::caption(&p, screen, title, text.as_deref(), *alpha),
-                None => draw::caption(&p, screen, &title, None, 0.85),
+                Some((title, text, alpha)) => draw::caption(&p, screen, title, text.as_deref(), alpha * dim),
+                None => draw::caption(&p, screen, &title, None, 0.85 * dim),
             }
             if let Some(inset) = &inset {
                 draw::inset(&p, screen, inset, words.inset_hint);
