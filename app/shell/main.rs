@@ -2,6 +2,7 @@
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
+use kiosk::terminal;
 use kiosk_content::import::{ImportOptions, import};
 use std::path::PathBuf;
 
@@ -139,7 +140,7 @@ enum Command {
         /// Speed against accuracy of the splat radii: samples that come with a normal but no
         /// spacing (point clouds; a mesh's faces give theirs) search their nearest neighbours
         /// for a spacing one in N per group of 8–15 neighbouring samples; the others take the
-        /// spacing of the nearest that did (1: every sample; see README).
+        /// spacing of the nearest that did (1: every sample; figures in docs/performance.md).
         #[arg(long, default_value_t = kiosk_import::BuildParams::default().spacing_stride as u32,
               value_parser = clap::value_parser!(u32).range(1..=16))]
         spacing_stride: u32,
@@ -265,6 +266,7 @@ fn main() -> anyhow::Result<()> {
         }))
         .with_writer(std::io::stderr)
         .init();
+    terminal::clean_up_imports_on_signals();
     let Some(command) = cli.command else { return run_kiosk(cli.run) };
     match command {
         Command::Import {
@@ -277,13 +279,17 @@ fn main() -> anyhow::Result<()> {
             vertices_only,
             quiet,
         } => {
-            let mut opts = ImportOptions { progress: !quiet, ..Default::default() };
+            let mut opts = ImportOptions::default();
             opts.read.texel_density = texel_density;
             opts.read.fill_plain_meshes = !vertices_only;
             opts.build.node_points = node_points as usize;
             opts.build.spacing_stride = spacing_stride as usize;
             opts.read.drop_invalid = drop_invalid;
-            let report = import(&scan, &output, &opts).inspect_err(|e| {
+            let mut bar = terminal::ImportBar::new(!quiet);
+            let report =
+                import(&scan, &output, &opts, &mut |phase, done, total| bar.report(phase, done, total));
+            drop(bar);
+            let report = report.inspect_err(|e| {
                 // The readers name no command-line flag; the command says what the user can do.
                 let non_finite = e.chain().any(|c| {
                     c.downcast_ref::<kiosk_import::ReadError<kiosk_import::BuildError>>()
@@ -354,7 +360,11 @@ fn main() -> anyhow::Result<()> {
                 size,
                 tolerance,
                 &settings,
-            )?;
+            )
+            .map_err(|e| match e.downcast_ref::<kiosk_content::snapshot::CorruptView>() {
+                Some(_) => e.context(format!("`kiosk check --full {}` reads every node", exhibit.display())),
+                None => e,
+            })?;
             let saved = match format {
                 image::ImageFormat::Jpeg => image::DynamicImage::ImageRgba8(image).to_rgb8().save(&output),
                 _ => image.save(&output),

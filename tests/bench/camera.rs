@@ -26,7 +26,12 @@ fn main() -> anyhow::Result<()> {
     let scan = kiosk_testkit::synthetic::dragon_scan();
     let dir = tempfile::tempdir()?;
     let scan_store = dir.path().join("dragon.kstore");
-    kiosk_content::import::import(&scan, &scan_store, &Default::default())?;
+    kiosk_content::import::import(
+        &scan,
+        &scan_store,
+        &Default::default(),
+        &mut kiosk_content::import::quiet,
+    )?;
     let mut models: Vec<(String, MappedStore)> =
         vec![("dragon (437 k)".into(), kiosk_content::open_store(&scan_store)?)];
     for n in [50_000_000u64, 10_000_000] {

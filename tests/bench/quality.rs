@@ -105,8 +105,8 @@ pub fn run(
     for (name, rel) in MODELS {
         let path = root.join(rel);
         let store_path = dir.path().join(format!("{}.kstore", name.split(' ').next().unwrap_or("m")));
-        let opts = kiosk_content::import::ImportOptions { progress: false, ..Default::default() };
-        kiosk_content::import::import(&path, &store_path, &opts)?;
+        let opts = kiosk_content::import::ImportOptions::default();
+        kiosk_content::import::import(&path, &store_path, &opts, &mut kiosk_content::import::quiet)?;
         let store = kiosk_content::open_store(&store_path)?;
         let mesh = kiosk_testkit::mesh::read(&path).map_err(anyhow::Error::msg)?;
         for (view, cam) in kiosk_testkit::mesh::views(&store, &mesh) {

@@ -34,6 +34,7 @@ fn main() -> anyhow::Result<()> {
         &root.join("tests/data/scans/stanford-dragon/dragon_vrip_res2.ply.gz"),
         &store_path,
         &Default::default(),
+        &mut kiosk_content::import::quiet,
     )?;
     let store = kiosk_content::open_store(&store_path)?;
     let cam = kiosk_core::replay::initial_camera(&store, 0.8, DVec3::Y);

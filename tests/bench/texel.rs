@@ -46,10 +46,10 @@ pub fn run(
     let mut references: Vec<image::RgbaImage> = Vec::new();
     for density in DENSITIES {
         let out = dir.path().join(format!("belweder-{density}.kstore"));
-        let mut opts = kiosk_content::import::ImportOptions { progress: false, ..Default::default() };
+        let mut opts = kiosk_content::import::ImportOptions::default();
         opts.read.texel_density = density;
         let t0 = Instant::now();
-        let report = kiosk_content::import::import(&glb, &out, &opts)?;
+        let report = kiosk_content::import::import(&glb, &out, &opts, &mut kiosk_content::import::quiet)?;
         let seconds = t0.elapsed().as_secs_f64();
         let store_mb = std::fs::metadata(&out)?.len() as f64 / 1e6;
         let store = kiosk_content::open_store(&out)?;

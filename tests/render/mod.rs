@@ -312,8 +312,13 @@ fn a_las_cloud_a_million_metres_away_renders_like_the_cloud_at_the_origin() {
     let (far, near, _) = common::las_far_and_near(dir.path(), shift.to_array());
     let import = |scan: &Path| {
         let out = scan.with_extension("kstore");
-        kiosk_content::import::import(scan, &out, &kiosk_content::import::ImportOptions::default())
-            .unwrap_or_else(|e| panic!("{}: {e:#}", scan.display()));
+        kiosk_content::import::import(
+            scan,
+            &out,
+            &kiosk_content::import::ImportOptions::default(),
+            &mut kiosk_content::import::quiet,
+        )
+        .unwrap_or_else(|e| panic!("{}: {e:#}", scan.display()));
         kiosk_content::open_store(&out).unwrap_or_else(|e| panic!("{e:#}"))
     };
     let (far, near) = (import(&far), import(&near));
@@ -645,7 +650,8 @@ fn the_textured_mesh_reference_and_the_splats_show_the_same_texture() {
     kiosk_content::import::import(
         &glb,
         &out,
-        &kiosk_content::import::ImportOptions { progress: false, ..Default::default() },
+        &kiosk_content::import::ImportOptions::default(),
+        &mut kiosk_content::import::quiet,
     )
     .expect("import");
     let store = kiosk_content::open_store(&out).expect("open");
@@ -832,4 +838,6 @@ fn a_corrupted_node_is_never_drawn_its_ancestor_stands_in_and_a_snapshot_says_so
     let e = kiosk_content::snapshot::snapshot(&g.0, &mut fresh(), &broken, &camera, size, 1.0, &settings)
         .expect_err("a corrupted store");
     assert!(e.to_string().contains(&format!("node {leaf} data checksum mismatch")), "{e}");
+    let typed = e.downcast_ref::<kiosk_content::snapshot::CorruptView>().expect("a CorruptView");
+    assert_eq!((typed.node, typed.count), (leaf, 1));
 }

@@ -69,8 +69,13 @@ fn a_las_cloud_a_million_metres_away_keeps_its_millimetres() {
     }
     let store = |scan: &Path, out: &str| {
         let out = dir.path().join(out);
-        kiosk_content::import::import(scan, &out, &kiosk_content::import::ImportOptions::default())
-            .expect("import");
+        kiosk_content::import::import(
+            scan,
+            &out,
+            &kiosk_content::import::ImportOptions::default(),
+            &mut kiosk_content::import::quiet,
+        )
+        .expect("import");
         kiosk_content::open_store(&out).expect("store")
     };
     let (sa, sb) = (store(&far, "far.kstore"), store(&near, "near.kstore"));
@@ -244,7 +249,13 @@ fn texture_colour_arrives_in_the_store() {
     let out = dir.path().join("box.kstore");
     let mut opts = kiosk_content::import::ImportOptions::default();
     opts.read.texel_density = 0.25;
-    kiosk_content::import::import(&data("box-textured/BoxTextured.glb"), &out, &opts).expect("import");
+    kiosk_content::import::import(
+        &data("box-textured/BoxTextured.glb"),
+        &out,
+        &opts,
+        &mut kiosk_content::import::quiet,
+    )
+    .expect("import");
     let store = kiosk_content::open_store(&out).expect("store");
     let tris = box_triangles();
     let img = image::open(data("box-textured/Cesium Logo Flat.png")).expect("png").to_rgba8();

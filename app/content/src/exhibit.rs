@@ -67,7 +67,7 @@ pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
             match crate::open_store(&store) {
                 Ok(s) => s,
                 Err(_) => {
-                    import_locked(&file, &lock, &options)?;
+                    import_locked(&file, &lock, &options, &mut crate::import::quiet)?;
                     crate::open_store(&store)?
                 }
             }

@@ -1,14 +1,14 @@
-//! `kiosk import`: scan file → store, with a progress bar and a summary.
+//! `kiosk import`: scan file → store, with progress reports and a summary.
 //!
 //! An import works in a directory of its own beside the output (`.NAME.import-PID/`: the
 //! builder's spill files and the partial store), under an exclusive lock on `.NAME.lock`: a second
 //! import to the same output (another `kiosk import`, or two kiosks filling the same cache) waits
 //! for the first and never shares its files. The directory is renamed into place and removed when
-//! the store is done, removed on an error, on Ctrl+C and on SIGTERM; one left by a killed process
-//! is removed by the next import to that output, which holds the lock.
+//! the store is done and removed on an error; a program that ends on a signal removes the running
+//! imports' directories with [`remove_work_dirs`] (the `kiosk` command does, on Ctrl+C and SIGTERM);
+//! one left by a killed process is removed by the next import to that output, which holds the lock.
 
 use anyhow::Context;
-use indicatif::{ProgressBar, ProgressStyle};
 use kiosk_import::{BuildParams, BuildSummary, Builder, ReadOptions, Stage, source};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -21,9 +21,36 @@ pub struct ImportOptions {
     pub build: BuildParams,
     /// Reader settings.
     pub read: ReadOptions,
-    /// Show a progress bar on the terminal.
-    pub progress: bool,
 }
+
+/// The phases an import reports its progress in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    /// The scan is read (done: samples read; total: samples the file says it holds, 0 when it
+    /// does not say).
+    Reading,
+    /// The samples are distributed to regions (done and total: samples).
+    Sorting,
+    /// The hierarchy is built (done and total: regions).
+    Building,
+}
+
+impl Phase {
+    /// The phase's name as shown to the user.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Reading => "reading",
+            Self::Sorting => "sorting",
+            Self::Building => "building",
+        }
+    }
+}
+
+/// Where an import reports how far it is: the phase, done and total.
+pub type Progress<'a> = dyn FnMut(Phase, u64, u64) + 'a;
+
+/// A [`Progress`] that shows nothing.
+pub fn quiet(_: Phase, _: u64, _: u64) {}
 
 /// What an import did.
 #[derive(Clone, Debug)]
@@ -55,41 +82,42 @@ impl std::fmt::Display for ImportReport {
     }
 }
 
-fn bar(progress: bool) -> ProgressBar {
-    if !progress {
-        return ProgressBar::hidden();
-    }
-    let pb = ProgressBar::new(0);
-    pb.set_style(
-        ProgressStyle::with_template("{msg:>10} [{bar:40}] {pos}/{len} {per_sec} eta {eta}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
-    pb
-}
-
-/// Imports a scan file into a store (waiting for any other import to the same output).
-pub fn import(scan: &Path, out: &Path, opts: &ImportOptions) -> anyhow::Result<ImportReport> {
+/// Imports a scan file into a store (waiting for any other import to the same output), reporting
+/// its progress to `progress` ([`quiet`] for none).
+pub fn import(
+    scan: &Path,
+    out: &Path,
+    opts: &ImportOptions,
+    progress: &mut Progress<'_>,
+) -> anyhow::Result<ImportReport> {
     let lock = OutputLock::acquire(out)?;
-    import_locked(scan, &lock, opts)
+    import_locked(scan, &lock, opts, progress)
 }
 
 /// Imports a scan file into the output that `lock` holds.
-pub fn import_locked(scan: &Path, lock: &OutputLock, opts: &ImportOptions) -> anyhow::Result<ImportReport> {
+pub fn import_locked(
+    scan: &Path,
+    lock: &OutputLock,
+    opts: &ImportOptions,
+    progress: &mut Progress<'_>,
+) -> anyhow::Result<ImportReport> {
     let start = Instant::now();
     check_input(scan, &lock.out)?;
     let work = WorkDir::create(&lock.out)?;
     let mut builder = Builder::new(opts.build, &work.path)?;
-    let pb = bar(opts.progress);
-    pb.set_message("reading");
-    let report = source::read_file(scan, &opts.read, &mut Feed { builder: &mut builder, pb: &pb, read: 0 })
+    progress(Phase::Reading, 0, 0);
+    let mut feed = Feed { builder: &mut builder, progress: &mut *progress, read: 0, expected: 0 };
+    let report = source::read_file(scan, &opts.read, &mut feed)
         .map_err(|e| anyhow::Error::new(e).context(scan.display().to_string()))?;
     let staged = work.path.join("store.kstore");
-    let summary = build(builder, &staged, &pb)
+    let summary = builder
+        .finish(&staged, &mut |stage| match stage {
+            Stage::Distribute(done, total) => progress(Phase::Sorting, done, total),
+            Stage::Build(done, total) => progress(Phase::Building, done, total),
+        })
         .with_context(|| format!("{}: building {}", scan.display(), lock.out.display()))?;
     std::fs::rename(&staged, &lock.out).with_context(|| format!("cannot write {}", lock.out.display()))?;
     drop(work);
-    pb.finish_and_clear();
     Ok(ImportReport { build: summary, warnings: report.warnings, seconds: start.elapsed().as_secs_f64() })
 }
 
@@ -174,8 +202,16 @@ fn split(out: &Path) -> anyhow::Result<(PathBuf, String)> {
     Ok((dir.to_path_buf(), name.to_string()))
 }
 
-/// Work directories of the imports running in this process, removed by the signal handler.
+/// Work directories of the imports running in this process (see [`remove_work_dirs`]).
 static ACTIVE: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Removes the work directories of the imports running in this process: for a program's signal
+/// handler, before it exits (the imports' own cleanup does not run then).
+pub fn remove_work_dirs() {
+    for dir in ACTIVE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).iter() {
+        let _ = std::fs::remove_dir_all(dir);
+    }
+}
 
 /// The directory an import works in; removed with everything in it when dropped.
 struct WorkDir {
@@ -187,7 +223,6 @@ impl WorkDir {
         let (dir, name) = split(out)?;
         let path = dir.join(format!(".{name}.import-{}", std::process::id()));
         std::fs::create_dir_all(&path).with_context(|| format!("cannot create {}", path.display()))?;
-        install_signal_cleanup();
         ACTIVE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(path.clone());
         Ok(Self { path })
     }
@@ -200,65 +235,33 @@ impl Drop for WorkDir {
     }
 }
 
-/// On Ctrl+C or SIGTERM: removes the work directories of running imports, then exits (status
-/// 130). Installed once per process, at the first import.
-fn install_signal_cleanup() {
-    static ONCE: std::sync::Once = std::sync::Once::new();
-    ONCE.call_once(|| {
-        let installed = ctrlc::set_handler(|| {
-            for dir in ACTIVE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).iter() {
-                let _ = std::fs::remove_dir_all(dir);
-            }
-            std::process::exit(130);
-        });
-        if let Err(e) = installed {
-            tracing::warn!("cannot clean up imports on signals: {e}");
-        }
-    });
-}
-
-/// The builder fed by a reader, with the points read on the progress bar.
-struct Feed<'a> {
+/// The builder fed by a reader, reporting the samples read.
+struct Feed<'a, 'p> {
     builder: &'a mut Builder,
-    pb: &'a ProgressBar,
+    progress: &'a mut Progress<'p>,
     read: u64,
+    expected: u64,
 }
 
-impl source::Sink for Feed<'_> {
+impl source::Sink for Feed<'_, '_> {
     type Error = kiosk_import::BuildError;
 
     fn expect(&mut self, points: u64) {
-        self.pb.set_length(points);
+        self.expected = points;
+        (self.progress)(Phase::Reading, self.read, points);
     }
 
     fn point(&mut self, p: source::InputPoint) -> Result<(), Self::Error> {
         self.read += 1;
         if self.read.is_multiple_of(65536) {
-            self.pb.set_position(self.read);
+            (self.progress)(Phase::Reading, self.read, self.expected);
         }
         source::Sink::point(self.builder, p)
     }
 
     fn points(&mut self, points: Vec<source::InputPoint>) -> Result<(), Self::Error> {
         self.read += points.len() as u64;
-        self.pb.set_position(self.read);
+        (self.progress)(Phase::Reading, self.read, self.expected);
         source::Sink::points(self.builder, points)
     }
-}
-
-/// Runs the builder with a progress bar.
-pub fn build(builder: Builder, out: &Path, pb: &ProgressBar) -> anyhow::Result<BuildSummary> {
-    let summary = builder.finish(out, &mut |stage| match stage {
-        Stage::Distribute(done, total) => {
-            pb.set_message("sorting");
-            pb.set_length(total);
-            pb.set_position(done);
-        }
-        Stage::Build(done, total) => {
-            pb.set_message("building");
-            pb.set_length(total);
-            pb.set_position(done);
-        }
-    })?;
-    Ok(summary)
 }

@@ -26,12 +26,21 @@ pub fn snapshot(
     let (image, _) = renderer.render_image(gpu, store, &nodes, camera, size, settings)?;
     let corrupt: Vec<_> = renderer.corrupt_nodes().iter().filter(|(id, _)| nodes.contains(id)).collect();
     if let Some((id, why)) = corrupt.first() {
-        anyhow::bail!(
-            "{why} ({} node(s) of this view fail their check, node {id} first; `kiosk check --full` reads them all)",
-            corrupt.len()
-        );
+        return Err(CorruptView { why: why.to_string(), node: **id, count: corrupt.len() }.into());
     }
     Ok(image)
+}
+
+/// A view that would draw nodes failing their check (a damaged store).
+#[derive(Debug, thiserror::Error)]
+#[error("{why} ({count} node(s) of this view fail their check, node {node} first)")]
+pub struct CorruptView {
+    /// What is wrong with the first.
+    pub why: String,
+    /// The first node failing.
+    pub node: kiosk_core::NodeId,
+    /// How many of the view's nodes fail.
+    pub count: usize,
 }
 
 /// A headless GPU and a renderer for offscreen images.

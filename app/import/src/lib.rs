@@ -1,6 +1,6 @@
-//! IsoKiosk import: the readers of real scans (PLY in every encoding, OBJ, LAS/LAZ, E57) and the out-of-core
-//! builder of the multiresolution point hierarchy. This is the file-heavy edge of the system;
-//! the store it writes is read by the pure core.
+//! IsoKiosk import: the readers of real scans (PLY in every encoding, OBJ with MTL, glTF/GLB,
+//! LAS/LAZ, E57) and the out-of-core builder of the multiresolution point hierarchy. This is the
+//! file-heavy edge of the system; the store it writes is read by the pure core.
 
 pub mod build;
 pub mod estimate;

@@ -374,6 +374,7 @@ impl Builder {
         };
         let (root, chunks) = match self.spill {
             Spill::Memory(v) => {
+                (ctx.progress)(Stage::Build(0, ctx.total));
                 let root = ctx.region(v, origin, drop)?;
                 (root, 1)
             }
@@ -387,6 +388,7 @@ impl Builder {
                     Plan::new(&tree, &mut cells, limit, &params, &self.tmp_dir, ctx.progress, &mut regions)?;
                 let chunks = regions.len();
                 ctx.timings.distribute += lap(&mut clock);
+                (ctx.progress)(Stage::Build(0, ctx.total));
                 // A reader thread loads the next region while this one is processed (one region
                 // ahead: memory stays bounded); each cell file is deleted once read.
                 // Region buffers go back to the reader once processed: fresh pages for every

@@ -79,7 +79,7 @@ pub fn detect(path: &Path) -> Result<Format, DetectError> {
         return Ok(Format::Ply);
     }
     if head.starts_with(b"ISOKSTOR") {
-        return unsupported("a file that is already a store (open it directly; `kiosk verify` checks it)");
+        return unsupported("a file that is already a store (an exhibit takes it as it is)");
     }
     if head.starts_with(b"glTF") {
         return Ok(Format::Gltf);
