@@ -514,3 +514,30 @@ fn e57_scans_in_spherical_and_cartesian_coordinates_merge_with_their_poses() {
         report.warnings
     );
 }
+
+#[test]
+fn a_scan_names_the_other_files_it_was_read_from() {
+    // These go beside a cached store, so that an edited texture, buffer or material library
+    // imports the scan again (`kiosk_content::exhibit`).
+    let corpus = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/ply-corpus/ok/trimesh");
+    for (scan, inputs) in [
+        (
+            data("box-textured/BoxTextured.gltf"),
+            vec![data("box-textured/BoxTextured0.bin"), data("box-textured/Cesium Logo Flat.png")],
+        ),
+        (data("box-textured/BoxTextured.glb"), vec![]),
+        (
+            data("box-textured/box textured.obj"),
+            vec![data("box-textured/box textured.mtl"), data("box-textured/Cesium Logo Flat.png")],
+        ),
+        (corpus.join("fuze.ply"), vec![corpus.join("fuze uv.jpg")]),
+    ] {
+        let (_, report) =
+            read_all(&scan, &ReadOptions::default()).unwrap_or_else(|e| panic!("{}: {e}", scan.display()));
+        let mut got = report.inputs.clone();
+        got.sort();
+        let mut want = inputs;
+        want.sort();
+        assert_eq!(got, want, "{}", scan.display());
+    }
+}

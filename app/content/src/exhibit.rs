@@ -58,16 +58,20 @@ pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
     let name = cache_name(&file, &options, kiosk_import::BUILDER_REVISION)?;
     std::fs::create_dir_all(cache).with_context(|| format!("cannot create the cache {}", cache.display()))?;
     let store = cache.join(name);
-    let opened = match crate::open_store(&store) {
-        Ok(s) => s,
-        Err(_) => {
+    // A cached store is used while the files its scan names (textures, material libraries,
+    // buffers) are as they were.
+    let cached = || crate::open_store(&store).ok().filter(|_| Inputs::unchanged(&store));
+    let opened = match cached() {
+        Some(s) => s,
+        None => {
             // Another kiosk or replay may be importing the same scan: wait for it, then use its
             // store.
             let lock = OutputLock::acquire(&store)?;
-            match crate::open_store(&store) {
-                Ok(s) => s,
-                Err(_) => {
-                    import_locked(&file, &lock, &options, &mut crate::import::quiet)?;
+            match cached() {
+                Some(s) => s,
+                None => {
+                    let report = import_locked(&file, &lock, &options, &mut crate::import::quiet)?;
+                    Inputs::note(&store, &report.inputs);
                     crate::open_store(&store)?
                 }
             }
@@ -83,6 +87,46 @@ pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
 
 /// Ending of the note beside each cached store that names the scan it was made from.
 const SOURCE: &str = "source";
+
+/// The note beside each cached store (`NAME.inputs`) of the other files its scan named when it
+/// was imported: each one's size and modification time, or that it was missing. The scan's own
+/// are in the store's name ([`cache_name`]).
+#[derive(Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+struct Inputs(Vec<(PathBuf, Option<(u64, u128)>)>);
+
+impl Inputs {
+    const ENDING: &str = "inputs";
+
+    fn of(paths: &[PathBuf]) -> Self {
+        let stamp = |p: &Path| {
+            let meta = std::fs::metadata(p).ok()?;
+            let modified = meta.modified().ok()?.duration_since(std::time::UNIX_EPOCH).ok()?;
+            Some((meta.len(), modified.as_nanos()))
+        };
+        Self(paths.iter().map(|p| (p.clone(), stamp(p))).collect())
+    }
+
+    /// Writes the note of the store `store` just imported.
+    fn note(store: &Path, paths: &[PathBuf]) {
+        let text = serde_json::to_string(&Self::of(paths)).unwrap_or_default();
+        if let Err(e) = std::fs::write(store.with_extension(Self::ENDING), text) {
+            tracing::warn!("cannot note the inputs of {} in the cache: {e}", store.display());
+        }
+    }
+
+    /// Whether every file the note beside `store` lists is as it was (a store without a note,
+    /// from an older kiosk, counts as changed).
+    fn unchanged(store: &Path) -> bool {
+        let Ok(text) = std::fs::read_to_string(store.with_extension(Self::ENDING)) else { return false };
+        let Ok(noted) = serde_json::from_str::<Self>(&text) else { return false };
+        let paths: Vec<PathBuf> = noted.0.iter().map(|(p, _)| p.clone()).collect();
+        let same = Self::of(&paths) == noted;
+        if !same {
+            tracing::info!("cache: a file {} was made from has changed; importing again", store.display());
+        }
+        same
+    }
+}
 
 /// Removes from `cache` the stores made from earlier versions of the scan `source` (edited, other
 /// settings, an older builder) and from scans that no longer exist, with their notes and locks;
@@ -114,6 +158,7 @@ pub fn sweep_cache(cache: &Path, keep: &Path, source: &Path) {
             }
         }
         let _ = std::fs::remove_file(&note);
+        let _ = std::fs::remove_file(store.with_extension(Inputs::ENDING));
         let _ = std::fs::remove_file(lock.lock_file());
     }
 }
@@ -514,6 +559,51 @@ mod tests {
     }
 
     #[test]
+    fn an_edited_texture_or_material_library_imports_the_scan_again() {
+        let root = tempfile::tempdir().expect("temp dir");
+        let (dir, cache) = (root.path().join("box"), root.path().join("cache"));
+        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/formats/box-textured");
+        std::fs::create_dir_all(&dir).expect("exhibit dir");
+        for f in ["box textured.obj", "box textured.mtl", "Cesium Logo Flat.png"] {
+            std::fs::copy(data.join(f), dir.join(f)).expect("copy");
+        }
+        let mean_colour = || {
+            let store = open_model_in(&dir, &cache).expect("open");
+            let splats: Vec<_> =
+                (0..store.nodes().len() as u32).flat_map(|id| store.splats(id).to_vec()).collect();
+            let sum = splats.iter().fold([0.0; 3], |a, s| [0, 1, 2].map(|c| a[c] + f64::from(s.color[c])));
+            sum.map(|c| c / splats.len() as f64)
+        };
+        let store_file = || {
+            let stores: Vec<_> = std::fs::read_dir(&cache)
+                .expect("cache")
+                .flatten()
+                .map(|e| e.path())
+                .filter(|p| p.extension().is_some_and(|e| e == "kstore"))
+                .collect();
+            assert_eq!(stores.len(), 1, "{stores:?}");
+            std::fs::metadata(&stores[0]).and_then(|m| m.modified()).expect("store's time")
+        };
+        let logo = mean_colour();
+        let made = store_file();
+        assert!(logo[0] < 250.0 && logo[2] > 5.0, "the logo's colours: {logo:?}");
+        // Opened again: the cached store, not a new import.
+        assert_eq!(mean_colour(), logo);
+        assert_eq!(store_file(), made, "nothing changed: the cached store is used");
+        // The curator corrects the texture: the model takes its new colours.
+        image::RgbaImage::from_pixel(64, 64, image::Rgba([200, 20, 20, 255]))
+            .save(dir.join("Cesium Logo Flat.png"))
+            .expect("new texture");
+        let red = mean_colour();
+        assert!(red[0] > 190.0 && red[1] < 30.0 && red[2] < 30.0, "the new texture's red: {red:?}");
+        assert_ne!(store_file(), made);
+        // The material library loses its texture: the mesh comes in plain.
+        std::fs::write(dir.join("box textured.mtl"), "newmtl Cesium logo\nKd 0.2 0.2 0.9\n").expect("mtl");
+        let blue = mean_colour();
+        assert!(blue[2] > blue[0] + 100.0 && blue[0] == blue[1], "the library's plain blue: {blue:?}");
+    }
+
+    #[test]
     fn an_edited_scan_replaces_its_cached_store_and_other_exhibits_keep_theirs() {
         let root = tempfile::tempdir().expect("temp dir");
         let cache = root.path().join("cache");
@@ -542,23 +632,24 @@ mod tests {
         open_model_in(&a, &cache).expect("a");
         open_model_in(&b, &cache).expect("b");
         let before = stores();
-        assert_eq!(before.len(), 4, "a store and its note for each exhibit: {before:?}");
-        assert!(before.iter().all(|n| n.ends_with(".kstore") || n.ends_with(".source")), "{before:?}");
+        assert_eq!(before.len(), 6, "a store and its two notes for each exhibit: {before:?}");
+        let endings = [".kstore", ".source", ".inputs"];
+        assert!(before.iter().all(|n| endings.iter().any(|e| n.ends_with(e))), "{before:?}");
         // An edit of a's scan: its new store replaces its old one; b's stays.
         let mut text = std::fs::read_to_string(a.join("bust.obj")).expect("read");
         text.push_str("# edited\n");
         std::fs::write(a.join("bust.obj"), text).expect("edit");
         open_model_in(&a, &cache).expect("a edited");
         let after = stores();
-        assert_eq!(after.len(), 4, "{after:?}");
+        assert_eq!(after.len(), 6, "{after:?}");
         let gone: Vec<_> = before.iter().filter(|n| !after.contains(n)).collect();
-        assert_eq!(gone.len(), 2, "a's old store and note: {gone:?}");
-        assert!(after.iter().filter(|n| before.contains(n)).count() == 2, "b's store and note stay");
+        assert_eq!(gone.len(), 3, "a's old store and notes: {gone:?}");
+        assert!(after.iter().filter(|n| before.contains(n)).count() == 3, "b's store and notes stay");
         // b is deleted: the next sweep removes its store, note and lock.
         std::fs::remove_dir_all(&b).expect("remove b");
         open_model_in(&a, &cache).expect("a again");
         let last = stores();
-        assert_eq!(last.len(), 2, "{last:?}");
+        assert_eq!(last.len(), 3, "{last:?}");
         let locks = std::fs::read_dir(&cache)
             .expect("cache")
             .flatten()

@@ -59,6 +59,8 @@ pub struct ImportReport {
     pub build: BuildSummary,
     /// Reader warnings.
     pub warnings: Vec<String>,
+    /// The other files the scan names (see [`kiosk_import::ReadReport::inputs`]).
+    pub inputs: Vec<PathBuf>,
     /// Wall time in seconds.
     pub seconds: f64,
 }
@@ -118,7 +120,12 @@ pub fn import_locked(
         .with_context(|| format!("{}: building {}", scan.display(), lock.out.display()))?;
     std::fs::rename(&staged, &lock.out).with_context(|| format!("cannot write {}", lock.out.display()))?;
     drop(work);
-    Ok(ImportReport { build: summary, warnings: report.warnings, seconds: start.elapsed().as_secs_f64() })
+    Ok(ImportReport {
+        build: summary,
+        warnings: report.warnings,
+        inputs: report.inputs,
+        seconds: start.elapsed().as_secs_f64(),
+    })
 }
 
 /// Refuses an import that would overwrite its own input.

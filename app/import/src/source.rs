@@ -197,6 +197,9 @@ pub struct ReadReport {
     pub has_colors: bool,
     /// Tolerated oddities.
     pub warnings: Vec<String>,
+    /// The other files the scan names and the reader looked for (material libraries, textures,
+    /// buffers), found or not: the model changes when one of them does.
+    pub inputs: Vec<std::path::PathBuf>,
 }
 
 /// The consumer of read points: a closure taking them one by one, or the builder itself (which

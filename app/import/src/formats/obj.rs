@@ -232,7 +232,9 @@ pub fn read_obj_in<E>(
     }
     if !libraries.is_empty() && !buffered.tris.is_empty() {
         let materials = match dir {
-            Some(dir) => mtl::load_libraries(dir, &libraries, &used, &mut report.warnings)?,
+            Some(dir) => {
+                mtl::load_libraries(dir, &libraries, &used, &mut report.warnings, &mut report.inputs)?
+            }
             None => {
                 report.warnings.push("materials ignored: the OBJ was read without its directory".into());
                 Vec::new()
@@ -329,11 +331,13 @@ pub mod mtl {
         libraries: &[(String, usize)],
         used: &[String],
         warnings: &mut Vec<String>,
+        inputs: &mut Vec<PathBuf>,
     ) -> Result<Vec<Option<ObjMaterial>>, ReadError<E>> {
         let mut defined: Vec<(String, ObjMaterial)> = Vec::new();
         let mut textures = TextureCache::default();
         for (names, line) in libraries {
             for path in library_files(dir, names) {
+                inputs.push(path.clone());
                 match std::fs::read(&path) {
                     Ok(bytes) => defined.extend(parse(&path, &bytes, &mut textures, warnings)?),
                     Err(e) => warnings.push(format!(
@@ -343,6 +347,7 @@ pub mod mtl {
                 }
             }
         }
+        inputs.extend(textures.paths());
         Ok(used
             .iter()
             .map(|name| {

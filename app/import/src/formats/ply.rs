@@ -114,12 +114,15 @@ pub fn read_ply_in<E>(
     };
     let texture = match (header.texture_files.first(), vertex_uv.is_some() || face_uv.is_some()) {
         (Some(name), true) if use_faces => match dir {
-            Some(dir) => Some(
-                named
-                    .iter()
-                    .map(|n| Texture::load(&dir.join(n)).map(Arc::new))
-                    .collect::<Result<Vec<_>, _>>()?,
-            ),
+            Some(dir) => {
+                report.inputs.extend(named.iter().map(|n| dir.join(n)));
+                Some(
+                    named
+                        .iter()
+                        .map(|n| Texture::load(&dir.join(n)).map(Arc::new))
+                        .collect::<Result<Vec<_>, _>>()?,
+                )
+            }
             None => {
                 report
                     .warnings

@@ -171,6 +171,17 @@ impl TextureCache {
         self.loaded.push((path.to_path_buf(), wrap, texture.clone()));
         Ok(texture)
     }
+
+    /// The files loaded, each once.
+    pub(crate) fn paths(&self) -> Vec<PathBuf> {
+        let mut paths: Vec<PathBuf> = Vec::new();
+        for (p, ..) in &self.loaded {
+            if !paths.contains(p) {
+                paths.push(p.clone());
+            }
+        }
+        paths
+    }
 }
 
 /// sRGB byte → linear value.
