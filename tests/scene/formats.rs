@@ -214,6 +214,9 @@ fn a_textured_box_takes_its_colours_from_the_texture_in_every_format() {
         "box-textured/BoxTextured.gltf",
         "box-textured/BoxTextured.glb",
         "box-textured/BoxTexturedQuantized.gltf",
+        // Its colour from KHR_materials_pbrSpecularGlossiness; the metallic-roughness fallback
+        // is black.
+        "box-textured/BoxTexturedSpecGloss.gltf",
         "box-textured/box textured.obj",
     ] {
         let (points, report) = read_all(&data(name), &opts).unwrap_or_else(|e| panic!("{name}: {e}"));

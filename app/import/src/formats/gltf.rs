@@ -1,7 +1,8 @@
 //! glTF 2.0 (`.gltf` with its buffers and images, or `.glb`) as a surface to sample
 //! ([`crate::formats::surface`]): every triangle primitive of the default scene (or the first)
 //! with its nodes' transforms, its base colour (`baseColorTexture` × `baseColorFactor` × `COLOR_0`,
-//! the sampler's wrap modes, `KHR_texture_transform`) and normals; `KHR_mesh_quantization`'s
+//! the sampler's wrap modes, `KHR_texture_transform`; or `KHR_materials_pbrSpecularGlossiness`'s
+//! `diffuseTexture` × `diffuseFactor` where a material has it) and normals; `KHR_mesh_quantization`'s
 //! integer attributes are read as the accessors say (normalised or not). Draco- and
 //! meshopt-compressed files are refused with an error naming the extension (no maintained Rust
 //! decoder of them is a dependency here). The JSON is parsed by the `gltf` crate; accessors are
@@ -42,6 +43,7 @@ pub enum GltfError {
 const READ_EXTENSIONS: &[&str] = &[
     "KHR_mesh_quantization",
     "KHR_texture_transform",
+    "KHR_materials_pbrSpecularGlossiness",
     "KHR_materials_unlit",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
@@ -264,7 +266,7 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
                     (out.materials.len() - 1) as u32
                 }),
             };
-            let info = gm.pbr_metallic_roughness().base_color_texture();
+            let info = base_colour(&gm).1;
             let uvs: Vec<[f32; 2]> = match &info {
                 Some(info) => {
                     let transform = info.texture_transform();
@@ -354,6 +356,19 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
     Ok((out, report))
 }
 
+/// A material's colour factor and texture: `KHR_materials_pbrSpecularGlossiness`'s diffuse ones
+/// where the material has that extension (older Sketchfab and Substance exports; the extension
+/// says its clients prefer it to the metallic-roughness fallback), else the base colour's.
+fn base_colour<'a>(gm: &gltf::Material<'a>) -> ([f32; 4], Option<gltf::texture::Info<'a>>) {
+    match gm.pbr_specular_glossiness() {
+        Some(sg) => (sg.diffuse_factor(), sg.diffuse_texture()),
+        None => {
+            let pbr = gm.pbr_metallic_roughness();
+            (pbr.base_color_factor(), pbr.base_color_texture())
+        }
+    }
+}
+
 /// A glTF material as the sampler uses it (its texture decoded once per image and wrap modes).
 fn material<E>(
     gm: &gltf::Material,
@@ -362,16 +377,15 @@ fn material<E>(
     dir: &Path,
     textures: &mut Decoded,
 ) -> Result<Material, ReadError<E>> {
-    let pbr = gm.pbr_metallic_roughness();
-    let factor = pbr.base_color_factor();
+    let (factor, info) = base_colour(gm);
     if !factor.iter().all(|f| f.is_finite()) {
         return Err(GltfError::At {
             place: format!("material {}", gm.index().unwrap_or(0)),
-            msg: "non-finite baseColorFactor".into(),
+            msg: "non-finite baseColorFactor (or diffuseFactor)".into(),
         }
         .into());
     }
-    let texture = match pbr.base_color_texture() {
+    let texture = match info {
         None => None,
         Some(info) => {
             let tex = info.texture();
