@@ -544,3 +544,20 @@ fn a_scan_names_the_other_files_it_was_read_from() {
         assert_eq!(got, want, "{}", scan.display());
     }
 }
+
+#[test]
+fn a_textured_ply_beyond_the_face_limit_keeps_its_texture() {
+    // A plain mesh beyond the limit is read as a cloud; a textured one would lose its colour.
+    let fuze = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/ply-corpus/ok/trimesh/fuze.ply");
+    let (within, _) = read_all(&fuze, &ReadOptions::default()).expect("fuze");
+    let small = ReadOptions { face_vertex_limit: 100, ..Default::default() };
+    let (beyond, report) = read_all(&fuze, &small).expect("fuze beyond the limit");
+    assert!(!report.warnings.iter().any(|w| w.contains("texture")), "{:?}", report.warnings);
+    assert_eq!(beyond.len(), within.len());
+    assert!(beyond.iter().zip(&within).all(|(a, b)| a.pos == b.pos && a.color == b.color));
+    // The plain bunny beyond it: faces ignored, said so.
+    let bunny =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/scans/stanford-bunny/bun_zipper_res4.ply");
+    let (_, report) = read_all(&bunny, &small).expect("bunny");
+    assert!(report.warnings.iter().any(|w| w.contains("face-normal limit")), "{:?}", report.warnings);
+}

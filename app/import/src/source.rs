@@ -42,7 +42,8 @@ impl InputPoint {
 pub struct ReadOptions {
     /// Drop samples with NaN/∞ coordinates (counted in a warning) instead of failing.
     pub drop_invalid: bool,
-    /// Meshes with at most this many vertices get area-weighted normals from their faces.
+    /// Plain meshes with at most this many vertices get area-weighted normals from their faces
+    /// (larger ones are read as clouds); a textured mesh keeps its faces whatever its size.
     pub face_vertex_limit: u64,
     /// Samples per texel of a textured triangle's footprint in its texture
     /// ([`crate::formats::surface`]): 1 samples a texture at its own resolution.

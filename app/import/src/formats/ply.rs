@@ -93,7 +93,6 @@ pub fn read_ply_in<E>(
         let li = f.prop("vertex_indices").or_else(|| f.prop("vertex_index"))?;
         matches!(f.props[li].kind, PropKind::List { .. }).then_some((fi, li))
     });
-    let use_faces = face.is_some() && v.count <= opts.face_vertex_limit;
     // Texture coordinates: per vertex, or per face corner.
     let vertex_uv = [["s", "t"], ["u", "v"], ["texture_u", "texture_v"], ["texture_s", "texture_t"]]
         .into_iter()
@@ -102,6 +101,10 @@ pub fn read_ply_in<E>(
         let f = &header.elements[fi];
         f.prop("texcoord").filter(|&i| matches!(f.props[i].kind, PropKind::List { .. }))
     });
+    // A textured mesh keeps its faces whatever its size (its colour is on them, as for OBJ and
+    // glTF); a plain one beyond the limit is read as a cloud.
+    let textured = !header.texture_files.is_empty() && (vertex_uv.is_some() || face_uv.is_some());
+    let use_faces = face.is_some() && (v.count <= opts.face_vertex_limit || textured);
     // A face's texture among the files named, when there are several.
     let face_texnumber = face.filter(|_| header.texture_files.len() > 1).and_then(|(fi, _)| {
         let f = &header.elements[fi];
