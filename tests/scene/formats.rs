@@ -561,3 +561,30 @@ fn a_textured_ply_beyond_the_face_limit_keeps_its_texture() {
     let (_, report) = read_all(&bunny, &small).expect("bunny");
     assert!(report.warnings.iter().any(|w| w.contains("face-normal limit")), "{:?}", report.warnings);
 }
+
+#[test]
+fn a_texture_named_by_the_exporters_absolute_path_is_found_beside_the_library() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    for f in ["box textured.obj", "Cesium Logo Flat.png"] {
+        std::fs::copy(data("box-textured").join(f), dir.path().join(f)).expect("copy");
+    }
+    let mtl = std::fs::read_to_string(data("box-textured/box textured.mtl")).expect("mtl");
+    let windows = r"C:\Users\curator\Exports\Cesium Logo Flat.png";
+    let mtl = mtl.replace("map_Kd Cesium Logo Flat.png", &format!("map_Kd {windows}"));
+    assert!(mtl.contains(windows), "{mtl}");
+    std::fs::write(dir.path().join("box textured.mtl"), mtl).expect("write mtl");
+    let (want, _) = read_all(&data("box-textured/box textured.obj"), &ReadOptions::default()).expect("box");
+    let (got, report) =
+        read_all(&dir.path().join("box textured.obj"), &ReadOptions::default()).expect("moved box");
+    assert!(
+        report.warnings.iter().any(|w| w.contains(windows) && w.contains("not found")),
+        "{:?}",
+        report.warnings
+    );
+    assert_eq!(got.len(), want.len());
+    assert!(got.iter().zip(&want).all(|(a, b)| a.color == b.color), "the texture's colours");
+    // Not there either: the error names the path the library gave.
+    std::fs::remove_file(dir.path().join("Cesium Logo Flat.png")).expect("remove");
+    let e = read_all(&dir.path().join("box textured.obj"), &ReadOptions::default()).expect_err("no texture");
+    assert!(e.to_string().contains("Exports/Cesium Logo Flat.png"), "{e}");
+}

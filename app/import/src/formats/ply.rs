@@ -118,13 +118,11 @@ pub fn read_ply_in<E>(
     let texture = match (header.texture_files.first(), vertex_uv.is_some() || face_uv.is_some()) {
         (Some(name), true) if use_faces => match dir {
             Some(dir) => {
-                report.inputs.extend(named.iter().map(|n| dir.join(n)));
-                Some(
-                    named
-                        .iter()
-                        .map(|n| Texture::load(&dir.join(n)).map(Arc::new))
-                        .collect::<Result<Vec<_>, _>>()?,
-                )
+                let (paths, moved): (Vec<_>, Vec<_>) =
+                    named.iter().map(|n| super::texture::image_path(dir, n)).unzip();
+                report.warnings.extend(moved.into_iter().flatten());
+                report.inputs.extend(paths.iter().cloned());
+                Some(paths.iter().map(|p| Texture::load(p).map(Arc::new)).collect::<Result<Vec<_>, _>>()?)
             }
             None => {
                 report

@@ -184,6 +184,24 @@ impl TextureCache {
     }
 }
 
+/// The image file a scan names `named` (a path relative to `dir`, the scan's or its library's
+/// directory; `\\` read as `/`). Exporters often write the absolute path the image had on their
+/// machine (`C:\\Users\\…\\atlas.jpg`): when the named file is not there but one of its name
+/// is in `dir`, that one is taken, with a warning saying so.
+pub(crate) fn image_path(dir: &Path, named: &str) -> (PathBuf, Option<String>) {
+    let path = dir.join(named.replace('\\', "/"));
+    if path.is_file() {
+        return (path, None);
+    }
+    let base = named.rsplit(['/', '\\']).next().unwrap_or(named);
+    let beside = dir.join(base);
+    if base != named && beside.is_file() {
+        let warning = format!("image '{named}' not found; using {}, of that name", beside.display());
+        return (beside, Some(warning));
+    }
+    (path, None)
+}
+
 /// sRGB byte → linear value.
 pub(crate) fn srgb_to_linear_lut() -> &'static [f32; 256] {
     static LUT: OnceLock<[f32; 256]> = OnceLock::new();
