@@ -328,7 +328,7 @@ fn main() -> anyhow::Result<()> {
             let size = parse_size(&size)?;
             // The view and its light: a node's stored light, else the light a visit starts with.
             let pose = kiosk_content::exhibit::model_pose(&exhibit)?;
-            let start = kiosk_core::replay::start_camera(&store, 0.8, pose.up, pose.front);
+            let start = kiosk_core::camera::start_camera(&store, 0.8, pose.up, pose.front);
             let start_light = kiosk_content::snapshot::start_light(&start);
             let (camera, light) = match (view, node) {
                 (Some(v), _) => (parse_view(&v)?, start_light),
@@ -433,7 +433,7 @@ fn main() -> anyhow::Result<()> {
                 .with_context(|| format!("cannot read session {}", session.display()))?;
             let parsed = kiosk_core::session::Session::parse(&text)
                 .with_context(|| format!("{}", session.display()))?;
-            let settings = kiosk_core::replay::ExploreSettings {
+            let settings = kiosk_core::explore::ExploreSettings {
                 controller: controller.parse().map_err(anyhow::Error::msg)?,
                 seed: seed.or(parsed.header.as_ref().and_then(|h| h.seed)).unwrap_or(0),
                 up: pose.up,
@@ -460,7 +460,7 @@ fn main() -> anyhow::Result<()> {
                 .with_context(|| format!("cannot write trace {}", trace.display()))?;
             let mut out = std::io::BufWriter::new(file);
             let mut written = out.write_all(
-                kiosk_core::replay::header_line(settings.controller.name(), settings.seed, settings.fps)
+                kiosk_core::trace::header_line(settings.controller.name(), settings.seed, settings.fps)
                     .as_bytes(),
             );
             let mut min_distance = None;
@@ -472,7 +472,7 @@ fn main() -> anyhow::Result<()> {
                     }
                 });
             written
-                .and_then(|()| out.write_all(kiosk_core::replay::summary_line(&s).as_bytes()))
+                .and_then(|()| out.write_all(kiosk_core::trace::summary_line(&s).as_bytes()))
                 .and_then(|()| out.flush())
                 .with_context(|| format!("cannot write trace {}", trace.display()))?;
             println!(

@@ -4,10 +4,10 @@
 
 use kiosk_content::MappedStore;
 use kiosk_content::exhibit::ModelPose;
-use kiosk_core::explore::Explorer;
+use kiosk_core::clock::{Playing, SessionFeed, Stepper};
+use kiosk_core::explore::{ExploreSettings, Explorer};
 use kiosk_core::graph::InfoGraph;
 use kiosk_core::kiosk::{KioskSettings, Mode, ModelRef, run_session};
-use kiosk_core::replay::ExploreSettings;
 use kiosk_core::session::Session;
 
 /// The nodes the engine displays, in order, when nobody touches for `secs` seconds (each
@@ -30,9 +30,12 @@ pub fn simulate_walk(
     };
     let mut explorer = Explorer::new(store, Some(graph), &settings, 0.0);
     explorer.autopilot = true;
-    let frames = (secs * settings.fps).ceil() as u64;
-    for k in 0..=frames {
-        explorer.step(k as f64 / settings.fps);
+    // The kiosk's own loop, with nobody touching.
+    let nobody = Session::default();
+    let mut stepper = Stepper::new(settings.fps, Playing::new(&nobody, SessionFeed::once()));
+    let end = stepper.clock().end_of(secs);
+    while let Some(t) = stepper.next(end, &mut explorer) {
+        explorer.step(t);
     }
     explorer.summary.nodes_displayed.clone()
 }

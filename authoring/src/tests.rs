@@ -2,7 +2,7 @@
 //! dependencies, validation, atomic save, reload → identical model; undo and redo.
 
 use super::*;
-use kiosk_core::replay::initial_camera;
+use kiosk_core::camera::initial_camera;
 
 fn exhibit() -> tempfile::TempDir {
     let dir = tempfile::tempdir().expect("tmp");
@@ -224,7 +224,7 @@ fn a_curator_tilts_a_scan_standing_off_axis_and_the_kiosk_reads_it() {
     let pose = kiosk_content::exhibit::model_pose(dir.path()).expect("the kiosk reads it");
     assert!(pose.up.abs_diff_eq(DVec3::new(0.0, c, s), 1e-12), "{pose:?}");
     assert!(pose.front.expect("front").abs_diff_eq(DVec3::new(0.0, -s, c), 1e-12), "{pose:?}");
-    let start = kiosk_core::replay::start_camera(&p.store, 0.8, pose.up, pose.front);
+    let start = kiosk_core::camera::start_camera(&p.store, 0.8, pose.up, pose.front);
     assert!(start.up.abs_diff_eq(pose.up, 1e-9), "the start view stands on the tilted up: {}", start.up);
     // Tilted back: the axis again, by name.
     p.tilt(DVec3::X, -7f64.to_radians()).expect("tilt back");
@@ -243,7 +243,7 @@ fn a_curator_turns_the_model_to_its_front_and_the_kiosk_starts_there() {
     let front = DVec3::new(-1.0, 0.0, -1.0).normalize();
     let pose = kiosk_content::exhibit::model_pose(dir.path()).expect("the kiosk reads it");
     assert!(pose.front.expect("a front").abs_diff_eq(front, 1e-9), "{pose:?}");
-    let start = kiosk_core::replay::start_camera(&p.store, 0.8, pose.up, pose.front);
+    let start = kiosk_core::camera::start_camera(&p.store, 0.8, pose.up, pose.front);
     assert!(
         (start.eye - start.target).normalize().abs_diff_eq(front, 1e-9),
         "the start view looks at the front"

@@ -10,9 +10,12 @@
 
 use glam::DVec3;
 use kiosk_content::MappedStore;
+use kiosk_core::camera::{ControllerKind, initial_camera};
 use kiosk_core::camera::{IsoCam, IsoCamSettings, SceneRef};
-use kiosk_core::replay::{self, ControllerKind, ExploreSettings, Trace, initial_camera};
+use kiosk_core::explore::ExploreSettings;
+use kiosk_core::replay;
 use kiosk_core::session::Script;
+use kiosk_core::trace::Trace;
 use kiosk_core::{Cut, CutParams};
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
@@ -217,9 +220,10 @@ fn plot(path: &PathBuf, series: &[(String, Vec<(f64, f64)>)]) -> anyhow::Result<
 /// acceleration of the view direction in rad/s², mean jerk of the eye in diagonals/s³).
 fn quality(trace: &Trace, diag: f64, fps: f64) -> (f64, f64, f64) {
     let fr = &trace.frames;
-    let dir =
-        |f: &replay::Frame| (DVec3::from_array(f.target) - DVec3::from_array(f.eye)).normalize_or_zero();
-    let eye = |f: &replay::Frame| DVec3::from_array(f.eye);
+    let dir = |f: &kiosk_core::trace::Frame| {
+        (DVec3::from_array(f.target) - DVec3::from_array(f.eye)).normalize_or_zero()
+    };
+    let eye = |f: &kiosk_core::trace::Frame| DVec3::from_array(f.eye);
     // Isolevel error: surface distance against the distance when the current gesture started.
     let (mut err, mut n, mut chosen) = (0.0, 0usize, fr[0].surface_distance);
     for w in fr.windows(2) {

@@ -37,7 +37,7 @@ fn main() -> anyhow::Result<()> {
         &mut kiosk_content::import::quiet,
     )?;
     let store = kiosk_content::open_store(&store_path)?;
-    let cam = kiosk_core::replay::initial_camera(&store, 0.8, DVec3::Y);
+    let cam = kiosk_core::camera::initial_camera(&store, 0.8, DVec3::Y);
     let mut cut = Cut::root(&store);
     cut.update(
         &store,

@@ -4,7 +4,9 @@
 use super::{Script, assert_safe, run};
 use crate::common;
 use glam::DVec3;
-use kiosk_core::replay::{self, ControllerKind, ExploreSettings};
+use kiosk_core::camera::ControllerKind;
+use kiosk_core::explore::ExploreSettings;
+use kiosk_core::replay;
 
 fn session() -> Script {
     Script::new().joystick(1, (0.2, 0.05), 2.0).wait(0.2).pinch(0.1, 0.7, 0.8).wait(0.2).joystick(

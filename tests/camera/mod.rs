@@ -5,8 +5,11 @@ mod properties;
 mod sessions;
 
 use crate::common;
-use kiosk_core::replay::{self, ControllerKind, ExploreSettings, Trace};
+use kiosk_core::camera::ControllerKind;
+use kiosk_core::explore::ExploreSettings;
+use kiosk_core::replay;
 pub use kiosk_core::session::Script;
+use kiosk_core::trace::Trace;
 
 pub fn run(store: &kiosk_content::MappedStore, script: &Script, controller: ControllerKind) -> Trace {
     let settings = ExploreSettings { controller, ..ExploreSettings::default() };

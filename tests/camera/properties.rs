@@ -3,8 +3,8 @@
 
 use super::{Script, assert_safe, run};
 use crate::common;
+use kiosk_core::camera::ControllerKind;
 use kiosk_core::camera::{IsoCam, IsoCamSettings, SceneRef};
-use kiosk_core::replay::ControllerKind;
 use proptest::prelude::*;
 use std::sync::OnceLock;
 
@@ -69,7 +69,7 @@ fn hundred_thousand_hover_steps_keep_the_isolevel() {
     let b = common::build(&common::read("scans/demosthenes/demosthenes-low-res.obj"), common::small_nodes());
     let cut = kiosk_core::Cut::leaves(&b.store);
     let scene = SceneRef { store: &b.store, cut: &cut };
-    let cam = kiosk_core::replay::initial_camera(&b.store, 0.8, glam::DVec3::Y);
+    let cam = kiosk_core::camera::initial_camera(&b.store, 0.8, glam::DVec3::Y);
     let settings = IsoCamSettings::for_model(scene.diagonal());
     let mut iso = IsoCam::new(scene, cam, settings);
     let level = iso.isolevel();
@@ -101,7 +101,7 @@ fn isocam_on_bunny(
 ) -> (IsoCam, SceneRef<'_, memmap2::Mmap>) {
     let b = bunny();
     let scene = SceneRef { store: &b.store, cut };
-    let cam = kiosk_core::replay::initial_camera(&b.store, 0.8, glam::DVec3::Y);
+    let cam = kiosk_core::camera::initial_camera(&b.store, 0.8, glam::DVec3::Y);
     let mut settings = IsoCamSettings::for_model(scene.diagonal());
     edit(&mut settings);
     (IsoCam::new(scene, cam, settings), scene)
@@ -149,7 +149,7 @@ fn a_view_steeper_than_the_tilt_limit_is_kept_and_relaxes_without_a_snap() {
         fov_y: 0.8,
     };
     assert!(settings.exceeds_tilt_limit(&steep));
-    assert!(!settings.exceeds_tilt_limit(&kiosk_core::replay::initial_camera(&b.store, 0.8, glam::DVec3::Y)));
+    assert!(!settings.exceeds_tilt_limit(&kiosk_core::camera::initial_camera(&b.store, 0.8, glam::DVec3::Y)));
     // Reset (the end of a go-to) keeps the view exactly.
     let mut iso = IsoCam::new(scene, steep, settings);
     let c = iso.camera();

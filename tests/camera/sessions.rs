@@ -4,14 +4,15 @@
 use super::{Script, assert_safe, run, scan};
 use crate::common;
 use glam::DVec3;
-use kiosk_core::replay::{ControllerKind, ExploreSettings};
+use kiosk_core::camera::ControllerKind;
+use kiosk_core::explore::ExploreSettings;
 
 fn v(a: [f64; 3]) -> DVec3 {
     DVec3::from_array(a)
 }
 
 /// Total signed angle swept by the eye around the vertical axis through `center`.
-fn azimuth_swept(trace: &kiosk_core::replay::Trace, center: DVec3) -> f64 {
+fn azimuth_swept(trace: &kiosk_core::trace::Trace, center: DVec3) -> f64 {
     let mut total = 0.0;
     let az = |e: DVec3| (e.z - center.z).atan2(e.x - center.x);
     for w in trace.frames.windows(2) {
@@ -415,7 +416,7 @@ fn acevit_recentres_on_what_a_portrait_screen_shows() {
     let scene = SceneRef { store: &b.store, cut: &cut };
     let center = scene.center();
     let aspect = 9.0 / 16.0;
-    let cam0 = kiosk_core::replay::initial_camera(&b.store, 0.8, DVec3::Y);
+    let cam0 = kiosk_core::camera::initial_camera(&b.store, 0.8, DVec3::Y);
     // Turn the view left so that the model's centre is 2.2 half-widths right of a portrait
     // screen's centre: only the model's left edge is on screen (a 16:9 screen would show most).
     let angle = (2.2 * aspect * (cam0.fov_y * 0.5).tan()).atan();

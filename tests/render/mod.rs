@@ -167,7 +167,7 @@ fn bust() -> &'static common::Built {
 }
 
 fn start(store: &MappedStore) -> Camera {
-    kiosk_core::replay::initial_camera(store, 0.8, DVec3::Y)
+    kiosk_core::camera::initial_camera(store, 0.8, DVec3::Y)
 }
 
 #[test]
@@ -414,7 +414,7 @@ fn a_scan_turned_any_way_starts_upright_when_its_exhibit_says_how() {
     let size = ["--size", "240x180"];
     let start = common::snapshot(&said, &said.join("start.png"), &cache, &size);
     let store = kiosk_content::exhibit::open_model_in(&said, &cache).expect("the turned store");
-    let cam = kiosk_core::replay::start_camera(&store, 0.8, up, Some(front));
+    let cam = kiosk_core::camera::start_camera(&store, 0.8, up, Some(front));
     assert!(cam.up.abs_diff_eq(up, 1e-9), "the start view stands on the stated up: {}", cam.up);
     let back = turn.inverse();
     let (e, t, u) = (back * cam.eye, back * cam.target, back * cam.up);

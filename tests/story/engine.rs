@@ -98,7 +98,7 @@ fn mandatory_predecessors_always_come_first_in_a_thousand_visits() {
     let cut = kiosk_core::Cut::leaves(&b.store);
     let samples: Vec<DVec3> =
         b.store.sample_cut(&cut, 64, &mut rng(3)).into_iter().map(|p| b.store.to_model(p)).collect();
-    let camera = kiosk_core::replay::initial_camera(&b.store, 0.8, DVec3::Y);
+    let camera = kiosk_core::camera::initial_camera(&b.store, 0.8, DVec3::Y);
     let ctx = ViewContext {
         camera,
         aspect: 16.0 / 9.0,

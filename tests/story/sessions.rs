@@ -5,9 +5,11 @@
 use super::node;
 use crate::common;
 use glam::DVec3;
+use kiosk_core::explore::ExploreSettings;
 use kiosk_core::graph::InfoGraph;
-use kiosk_core::replay::{self, ExploreSettings, Trace};
+use kiosk_core::replay;
 use kiosk_core::session::Script;
+use kiosk_core::trace::Trace;
 
 struct Exhibit {
     built: common::Built,
@@ -19,7 +21,7 @@ fn exhibit() -> Exhibit {
     let built =
         common::build(&common::read("scans/demosthenes/demosthenes-low-res.obj"), common::small_nodes());
     let center = built.store.to_model(built.store.bbox().center());
-    let eye0 = replay::initial_camera(&built.store, 0.8, DVec3::Y).eye;
+    let eye0 = kiosk_core::camera::initial_camera(&built.store, 0.8, DVec3::Y).eye;
     Exhibit { built, center, eye0 }
 }
 
@@ -352,7 +354,7 @@ fn a_trace_never_replaces_its_session_and_a_recording_is_not_overwritten() {
 /// One frame of a driven exploration: the camera shown and the trace line.
 struct Driven {
     cam: kiosk_core::camera::Camera,
-    frame: kiosk_core::replay::Frame,
+    frame: kiosk_core::trace::Frame,
 }
 
 /// Runs a script through an explorer (the replay's loop), keeping the cameras (the trace has no
@@ -486,9 +488,9 @@ fn a_menu_pick_during_a_proposal_counts_as_a_menu_pick() {
 
 #[test]
 fn the_hidden_nudge_moves_each_controller_toward_the_attracting_view() {
+    use kiosk_core::camera::ControllerKind;
     use kiosk_core::camera::{Intent, SceneRef};
     use kiosk_core::recommend::{RecSettings, RecState, Recommender, ViewContext};
-    use kiosk_core::replay::ControllerKind;
     use rand::SeedableRng;
     let ex = exhibit();
     let store = &ex.built.store;
@@ -498,7 +500,7 @@ fn the_hidden_nudge_moves_each_controller_toward_the_attracting_view() {
     let cut = kiosk_core::Cut::leaves(store);
     let scene = SceneRef { store, cut: &cut };
     let diag = scene.diagonal();
-    let cam0 = replay::initial_camera(store, settings.fov_y, settings.up);
+    let cam0 = kiosk_core::camera::initial_camera(store, settings.fov_y, settings.up);
     let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
     let samples: Vec<DVec3> =
         store.sample_cut(&cut, 64, &mut rng).into_iter().map(|p| store.to_model(p)).collect();
@@ -506,7 +508,7 @@ fn the_hidden_nudge_moves_each_controller_toward_the_attracting_view() {
     rec.state = RecState::Attract { node: 0, since: 0.0 };
     let aspect = 16.0 / 9.0;
     for kind in [ControllerKind::IsoCam, ControllerKind::Trackball, ControllerKind::Acevit] {
-        let base = replay::make_controller(scene, cam0, kind, 0.01 * diag, DVec3::Y, aspect);
+        let base = kiosk_core::camera::make_controller(scene, cam0, kind, 0.01 * diag, DVec3::Y, aspect);
         let ctx =
             ViewContext { camera: base.camera(), aspect, samples: &samples, diagonal: diag, moving: true };
         // Vertical motion, orthogonal to the way toward the side view (to the right).
@@ -544,7 +546,7 @@ fn a_go_to_turns_the_light_to_a_nodes_stored_light_and_keeps_the_light_without_o
     lit.light = Some(stored);
     let t = ex.run(&graph(vec![lit]), &script);
     assert_eq!(t.summary.nodes_displayed, ["back"], "{:?}", states(&t));
-    let light = |f: &kiosk_core::replay::Frame| DVec3::from_array(f.light);
+    let light = |f: &kiosk_core::trace::Frame| DVec3::from_array(f.light);
     let start = light(&t.frames[0]);
     let first_goto = t.frames.iter().position(|f| f.recommender.as_deref() == Some("go-to")).expect("go-to");
     let first_display =

@@ -343,7 +343,7 @@ fn a_z_up_model_starts_upright_and_stays_upright() {
         let first = glam::DVec3::from_array(explored[0].up);
         assert!(first.dot(up) > 0.99, "up {up}: the exploration starts upright ({first})");
         // The start view itself is level: it looks across the model's up, not down or up at it.
-        let start = kiosk_core::replay::start_camera(store, 0.8, up, None);
+        let start = kiosk_core::camera::start_camera(store, 0.8, up, None);
         assert!(
             start.forward().dot(up).abs() < 1e-12 && start.up.dot(up) > 1.0 - 1e-12,
             "up {up}: {start:?}"

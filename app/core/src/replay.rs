@@ -2,14 +2,12 @@
 //! trace ([`crate::trace`]) — the test harness of the whole interaction path. Same store, session,
 //! settings and seed → byte-identical trace.
 
-pub use crate::camera::{ControllerKind, initial_camera, make_controller, start_camera};
 use crate::clock::{Playing, SessionFeed, Stepper};
-pub use crate::explore::ExploreSettings;
-use crate::explore::Explorer;
+use crate::explore::{ExploreSettings, Explorer};
 use crate::graph::InfoGraph;
 use crate::scene::Store;
 use crate::session::Session;
-pub use crate::trace::{Frame, MenuTrace, Summary, Trace, header_line, summary_line};
+use crate::trace::{Frame, Summary, Trace};
 
 /// Runs a session without an information graph and returns its trace.
 pub fn run<B: AsRef<[u8]>>(store: &Store<B>, session: &Session, settings: &ExploreSettings) -> Trace {

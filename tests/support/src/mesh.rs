@@ -16,7 +16,7 @@ pub fn views(store: &MappedStore, mesh: &Mesh) -> [(&'static str, Camera); 3] {
 
 /// [`views`] from the model's `front` side (see [`kiosk_core::camera::start_camera`]).
 pub fn views_from(store: &MappedStore, mesh: &Mesh, front: Option<DVec3>) -> [(&'static str, Camera); 3] {
-    let far = kiosk_core::replay::start_camera(store, 0.8, DVec3::Y, front);
+    let far = kiosk_core::camera::start_camera(store, 0.8, DVec3::Y, front);
     let dir = far.forward();
     let diag = f64::from(store.bbox().diagonal());
     // The first vertex along the central ray (within 1 % of the diagonal from it).
