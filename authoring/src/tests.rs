@@ -33,8 +33,7 @@ fn author_a_small_graph_save_and_reload_identically() {
     let dir = exhibit();
     let (mut p, problems) = open(dir.path()).expect("open");
     assert!(problems.is_empty() && p.graph.nodes.is_empty());
-    let (gpu, mut renderer) =
-        kiosk_content::snapshot::offscreen().expect("a GPU adapter (lavapipe) is required");
+    let (gpu, mut renderer) = kiosk_testkit::test_gpu();
     let a = p.capture(orbit(&p, 0.0), Some("front"), Some((&gpu, &mut renderer))).expect("capture");
     let b = p.capture(orbit(&p, 40.0), None, Some((&gpu, &mut renderer))).expect("capture");
     assert_eq!(b, "view-1");
@@ -122,8 +121,7 @@ fn an_interrupted_save_keeps_the_previous_file() {
 fn ids_and_languages_that_would_name_files_outside_the_exhibit_are_refused() {
     let dir = exhibit();
     let (mut p, _) = open(dir.path()).expect("open");
-    let (gpu, mut renderer) =
-        kiosk_content::snapshot::offscreen().expect("a GPU adapter (lavapipe) is required");
+    let (gpu, mut renderer) = kiosk_testkit::test_gpu();
     let e = p
         .capture(orbit(&p, 0.0), Some("../../escaped"), Some((&gpu, &mut renderer)))
         .expect_err("an id with a path in it");

@@ -49,9 +49,7 @@ fn gpu() -> &'static Mutex<(Gpu, Renderer)> {
         if log::set_logger(&LOGGER).is_ok() {
             log::set_max_level(log::LevelFilter::Error);
         }
-        let (gpu, renderer) = kiosk_content::snapshot::offscreen().unwrap_or_else(|e| {
-            panic!("no GPU adapter: {e:#}. Run .ci/setup (installs lavapipe) — GPU tests never skip.")
-        });
+        let (gpu, renderer) = kiosk_testkit::test_gpu();
         Mutex::new((gpu, renderer))
     })
 }
@@ -735,8 +733,7 @@ fn drawing_frames_does_not_grow_the_heap() {
 /// windows (signed) is under 3 MB: a one-time take or release moves one step, a block held through
 /// most of one window two steps by opposite amounts, and a leak raises every step.
 fn heap_growth_over_frames() {
-    let (gpu, mut renderer) = kiosk_content::snapshot::offscreen()
-        .unwrap_or_else(|e| panic!("no GPU adapter: {e:#}. Run .ci/setup (installs lavapipe)"));
+    let (gpu, mut renderer) = kiosk_testkit::test_gpu();
     let store = &bunny().store;
     let camera = start(store);
     let size = (320, 240);
