@@ -2,7 +2,7 @@
 
 use glam::DVec3;
 use kiosk_content::MappedStore;
-use kiosk_import::source::{self, InputPoint, ReadOptions};
+use kiosk_import::source::{InputPoint, ReadOptions};
 use kiosk_import::{BuildParams, BuildSummary, Builder};
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
@@ -54,7 +54,7 @@ pub fn read_vertices(rel: &str) -> Vec<InputPoint> {
 
 fn read_with(rel: &str, opts: &ReadOptions) -> Vec<InputPoint> {
     let path = data(rel);
-    match source::read_all(&path, opts) {
+    match kiosk_import::read_all(&path, opts) {
         Ok((pts, _)) => pts,
         Err(e) => panic!("{}: {e}", path.display()),
     }

@@ -12,7 +12,7 @@ libfuzzer_sys::fuzz_target!(|data: &[u8]| {
     // minutes; the cap is an error like any other.
     let opts = kiosk_import::ReadOptions { texel_density: 0.05, max_samples: 5_000_000, ..Default::default() };
     let mut points = 0usize;
-    let _ = kiosk_import::source::read_file(&path, &opts, &mut |_| {
+    let _ = kiosk_import::read_file(&path, &opts, &mut |_| {
         points += 1;
         Ok(())
     });

@@ -2,5 +2,5 @@
 #![no_main]
 libfuzzer_sys::fuzz_target!(|data: &[u8]| {
     let opts = kiosk_import::ReadOptions::default();
-    let _ = kiosk_import::source::read_ply_bytes(data, &opts);
+    let _ = kiosk_import::formats::read_ply_bytes(data, &opts);
 });

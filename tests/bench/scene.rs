@@ -26,7 +26,8 @@ use glam::{DVec3, Vec3};
 use kiosk_content::MappedStore;
 use kiosk_core::scene::query::Level;
 use kiosk_core::{Cut, CutParams, QueryParams, ViewParams};
-use kiosk_import::source::{self, InputPoint, ReadOptions};
+use kiosk_import::formats;
+use kiosk_import::source::{InputPoint, ReadOptions};
 use kiosk_import::{BuildParams, Builder};
 use plotters::prelude::*;
 use rand::{Rng, SeedableRng};
@@ -185,7 +186,7 @@ fn reader_alone(path: &Path, opts: &ReadOptions, runs: usize) -> anyhow::Result<
             n += 1;
             Ok(())
         };
-        let report = source::read_file(path, opts, &mut count)?;
+        let report = formats::read_file(path, opts, &mut count)?;
         times.push(start.elapsed().as_secs_f64());
         anyhow::ensure!(report.points == n, "{} points reported, {n} received", report.points);
     }
@@ -290,7 +291,7 @@ fn inflate_ms(scan: &Path) -> anyhow::Result<f64> {
     let mut ms: Vec<f64> = (0..5)
         .map(|_| {
             let t = Instant::now();
-            std::io::copy(&mut source::open(scan)?, &mut std::io::sink())?;
+            std::io::copy(&mut formats::gzip::open(scan)?, &mut std::io::sink())?;
             Ok(t.elapsed().as_secs_f64() * 1e3)
         })
         .collect::<anyhow::Result<_>>()?;
@@ -427,7 +428,8 @@ fn child_build(input: &str, m: usize, out: &str, spacing_stride: usize) -> anyho
     }
     let start = Instant::now();
     let mut b = Builder::new(params, tmp)?;
-    source::read_file(&path, &ReadOptions::default(), &mut b).with_context(|| format!("build of {label}"))?;
+    formats::read_file(&path, &ReadOptions::default(), &mut b)
+        .with_context(|| format!("build of {label}"))?;
     let read = start.elapsed().as_secs_f64();
     let s = b.finish(out, &mut |_| {})?;
     let secs = start.elapsed().as_secs_f64();
@@ -602,7 +604,7 @@ fn fine_error(store: &MappedStore, cut: &Cut, qs: &[DVec3], params: &QueryParams
 }
 
 fn tradeoff(scan: &Path, out_dir: &Path, quick: bool) -> anyhow::Result<()> {
-    let (pts, _) = source::read_all(scan, &ReadOptions::default())?;
+    let (pts, _) = formats::read_all(scan, &ReadOptions::default())?;
     let n_queries = if quick { 1000 } else { 5000 };
     println!("\n## Speed against accuracy: node size M ({}; full-resolution cut)", scan.display());
     println!(

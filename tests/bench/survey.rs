@@ -8,7 +8,8 @@
 //! point iterator with the same conversions as the importer.
 
 use glam::DVec3;
-use kiosk_import::source::{self, InputPoint, ReadOptions};
+use kiosk_import::formats;
+use kiosk_import::source::{InputPoint, ReadOptions};
 use rand::{Rng, SeedableRng};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -161,7 +162,7 @@ fn reader(path: &Path) -> anyhow::Result<u64> {
         n += 1;
         Ok(())
     };
-    let report = source::read_file(path, &ReadOptions::default(), &mut count)?;
+    let report = formats::read_file(path, &ReadOptions::default(), &mut count)?;
     anyhow::ensure!(report.points == n, "{} points reported, {n} received", report.points);
     Ok(n)
 }

@@ -3,8 +3,9 @@
 //! lines and CRLF ends; and their errors, which must name the row and line a line-by-line reader
 //! would.
 
+use kiosk_import::formats;
 use kiosk_import::formats::obj::ObjError;
-use kiosk_import::ply::{self, PlyError, Row};
+use kiosk_import::formats::ply::parse::{self as ply, PlyError, Row};
 use kiosk_import::source::{self, ReadOptions};
 use std::fmt::Write as _;
 use std::io::BufReader;
@@ -76,8 +77,8 @@ fn ascii_rows_equal_binary_rows_across_blocks() {
     assert_eq!(a, b);
     // And through the scan reader: the same points, with face normals, either way.
     let opts = crate::common::vertices_only();
-    let (pa, ra) = source::read_ply_bytes(ascii.as_bytes(), &opts).expect("ascii points");
-    let (pb, rb) = source::read_ply_bytes(&bin, &opts).expect("binary points");
+    let (pa, ra) = formats::read_ply_bytes(ascii.as_bytes(), &opts).expect("ascii points");
+    let (pb, rb) = formats::read_ply_bytes(&bin, &opts).expect("binary points");
     assert_eq!((ra.points, ra.faces_used), (60_000, 120_000));
     assert_eq!((ra.points, ra.faces_used), (rb.points, rb.faces_used));
     assert_eq!(pa, pb);
@@ -124,8 +125,9 @@ fn errors_in_later_blocks_name_their_row_and_line() {
     // Of two errors, the earlier row's, even when the visit finds it and the parser the later.
     let first = line_of_vertex(&ascii, 30_000);
     let bad = with_line(&with_line(&ascii, first, "nan 0 0 1 1"), line, "1 2 oops 3 4");
-    let e =
-        source::read_ply_bytes(bad.as_bytes(), &crate::common::vertices_only()).expect_err("nan").to_string();
+    let e = formats::read_ply_bytes(bad.as_bytes(), &crate::common::vertices_only())
+        .expect_err("nan")
+        .to_string();
     assert!(e.starts_with(&format!("element 'vertex' row 30000 (line {first}): non-finite")), "{e}");
 }
 
@@ -199,7 +201,7 @@ fn a_bad_row_before_a_read_error_is_the_error_reported() {
     let line = 3 * 20_000 + 4;
     let bad = with_line(&text, line, "v 1 2 oops");
     let upto = bad.match_indices('\n').nth(line + 4000).expect("lines").0;
-    let e = source::read_obj(
+    let e = formats::obj::read_obj(
         &mut BufReader::new(FailingAfter(&bad.as_bytes()[..upto])),
         &crate::common::vertices_only(),
         &mut |_| Ok(()),
@@ -218,13 +220,13 @@ fn junk_after_the_last_element_is_a_warning_not_a_failure() {
     let dir = tempfile::tempdir().expect("temp dir");
     let path = dir.path().join("padded.ply.gz");
     std::fs::write(&path, [&gz[..], &[0u8; 512]].concat()).expect("write");
-    let (pts, rep) = source::read_all(&path, &crate::common::vertices_only()).expect("loads");
+    let (pts, rep) = formats::read_all(&path, &crate::common::vertices_only()).expect("loads");
     assert_eq!(pts.len(), 5205);
     assert!(rep.warnings.iter().any(|w| w.contains("could not be read")), "{:?}", rep.warnings);
     // Missing rows are still an error, whatever comes after them.
     let cut = dir.path().join("cut.ply.gz");
     std::fs::write(&cut, &gz[..gz.len() / 2]).expect("write");
-    let e = source::read_all(&cut, &crate::common::vertices_only()).expect_err("half a scan").to_string();
+    let e = formats::read_all(&cut, &crate::common::vertices_only()).expect_err("half a scan").to_string();
     assert!(e.starts_with("read error:"), "{e}");
 }
 
@@ -232,7 +234,7 @@ fn junk_after_the_last_element_is_a_warning_not_a_failure() {
 fn unicode_whitespace_separates_values_as_before() {
     let ply = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n\
                end_header\n0.5\u{a0}1 2\n\u{3000}\n3 4\u{2003}5\n";
-    let (pts, _) = source::read_ply_bytes(ply.as_bytes(), &crate::common::vertices_only()).expect("loads");
+    let (pts, _) = formats::read_ply_bytes(ply.as_bytes(), &crate::common::vertices_only()).expect("loads");
     let pos: Vec<[f64; 3]> = pts.iter().map(|p| p.pos.to_array()).collect();
     assert_eq!(pos, [[0.5, 1.0, 2.0], [3.0, 4.0, 5.0]]);
 }
@@ -303,7 +305,7 @@ fn obj_and_ply(n: u32) -> (Vec<u8>, Vec<u8>) {
 
 fn read_obj(bytes: &[u8], opts: &ReadOptions) -> Result<Vec<source::InputPoint>, String> {
     let mut pts = Vec::new();
-    source::read_obj(&mut BufReader::new(bytes), opts, &mut |p| {
+    formats::obj::read_obj(&mut BufReader::new(bytes), opts, &mut |p| {
         pts.push(p);
         Ok(())
     })
@@ -320,7 +322,7 @@ fn obj_points_equal_binary_ply_points_across_blocks() {
     assert!(obj.len() > 4 << 20, "several blocks ({} bytes)", obj.len());
     let opts = crate::common::vertices_only();
     let from_obj = read_obj(&obj, &opts).expect("obj");
-    let (from_ply, rep) = source::read_ply_bytes(&ply, &opts).expect("ply");
+    let (from_ply, rep) = formats::read_ply_bytes(&ply, &opts).expect("ply");
     assert_eq!((rep.points, rep.faces_used), (60_000, 120_000));
     assert_eq!(from_obj.len(), from_ply.len());
     if let Some(i) = (0..from_obj.len()).find(|&i| from_obj[i] != from_ply[i]) {
@@ -353,11 +355,12 @@ fn obj_errors_name_their_line_in_later_blocks() {
     );
     // The errors are typed: the line as a number, the material library by its path.
     let bad = with_line(&text, line, "v 1 2 three");
-    let e = source::read_obj(&mut BufReader::new(bad.as_bytes()), &opts, &mut |_| Ok(())).expect_err("bad");
-    assert!(matches!(e, source::ReadError::Obj(ObjError::Line { line: l, .. }) if l == line), "{e:?}");
-    let e = source::read_obj(&mut BufReader::new(&b"# nothing\n"[..]), &opts, &mut |_| Ok(()))
+    let e =
+        formats::obj::read_obj(&mut BufReader::new(bad.as_bytes()), &opts, &mut |_| Ok(())).expect_err("bad");
+    assert!(matches!(e, kiosk_import::ReadError::Obj(ObjError::Line { line: l, .. }) if l == line), "{e:?}");
+    let e = formats::obj::read_obj(&mut BufReader::new(&b"# nothing\n"[..]), &opts, &mut |_| Ok(()))
         .expect_err("empty");
-    assert!(matches!(e, source::ReadError::Obj(ObjError::NoVertices)), "{e:?}");
+    assert!(matches!(e, kiosk_import::ReadError::Obj(ObjError::NoVertices)), "{e:?}");
     // A dropped vertex keeps its place: the faces after it still find theirs.
     let bad = with_line(&text, line, "v nan 2 3");
     let pts = read_obj(bad.as_bytes(), &ReadOptions { drop_invalid: true, ..opts }).expect("dropped");
@@ -375,12 +378,12 @@ fn faces_before_their_vertices_are_checked_once_every_vertex_is_read() {
         )
     };
     let (pts, rep) =
-        source::read_ply_bytes(ply("3 0 1 2").as_bytes(), &crate::common::vertices_only()).expect("loads");
+        formats::read_ply_bytes(ply("3 0 1 2").as_bytes(), &crate::common::vertices_only()).expect("loads");
     assert_eq!((pts.len(), rep.faces_used), (3, 1));
     for p in &pts {
         assert_eq!(p.normal.to_array(), [0.0, 0.0, 1.0], "the face's normal at {:?}", p.pos);
     }
-    let err = source::read_ply_bytes(ply("3 0 1 5").as_bytes(), &crate::common::vertices_only())
+    let err = formats::read_ply_bytes(ply("3 0 1 5").as_bytes(), &crate::common::vertices_only())
         .expect_err("index out of range")
         .to_string();
     assert!(err.contains("a face refers to vertex 5 but the file has 3 vertices"), "{err}");

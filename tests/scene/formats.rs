@@ -1,7 +1,7 @@
 //! Survey formats (LAS/LAZ, E57) read from real files of public test suites
 //! (`tests/data/formats/SOURCES.md`), and the formats the importer refuses, by content.
 
-use kiosk_import::source::read_all;
+use kiosk_import::read_all;
 use kiosk_import::{InputPoint, ReadOptions};
 use std::path::{Path, PathBuf};
 
@@ -375,7 +375,7 @@ fn a_textured_ply_without_its_image_names_it() {
     // The same file read as a stream (no directory to look in) is its vertices, with a warning.
     let mut r = std::io::BufReader::new(std::fs::File::open(&ply).expect("open"));
     let mut n = 0u64;
-    let rep = kiosk_import::source::read_ply(&mut r, &crate::common::vertices_only(), &mut |_| {
+    let rep = kiosk_import::formats::ply::read_ply(&mut r, &crate::common::vertices_only(), &mut |_| {
         n += 1;
         Ok(())
     })

@@ -4,7 +4,8 @@
 //! end; the header counts it is given are bounded by the limits of the readers.)
 
 use crate::common::data;
-use kiosk_import::source::{self, ReadOptions};
+use kiosk_import::formats;
+use kiosk_import::source::ReadOptions;
 use rand::{Rng, SeedableRng};
 use std::io::BufReader;
 
@@ -118,9 +119,9 @@ fn broken_files_never_panic_and_errors_say_something() {
                 };
                 let mut r = BufReader::new(&b[..]);
                 let got = if obj {
-                    source::read_obj(&mut r, &opts, &mut sink)
+                    formats::obj::read_obj(&mut r, &opts, &mut sink)
                 } else {
-                    source::read_ply(&mut r, &opts, &mut sink)
+                    formats::ply::read_ply(&mut r, &opts, &mut sink)
                 };
                 got.map(|rep| (rep.points, pts)).map_err(|e| e.to_string())
             });
@@ -188,7 +189,7 @@ fn broken_survey_files_never_panic_and_errors_say_something() {
             std::fs::write(&path, &b).expect("write");
             let read = std::panic::catch_unwind(|| {
                 let mut pts = 0u64;
-                let got = source::read_file(&read_path, &opts, &mut |_| {
+                let got = formats::read_file(&read_path, &opts, &mut |_| {
                     pts += 1;
                     Ok(())
                 });
@@ -224,7 +225,7 @@ fn a_laz_chunk_table_counting_too_many_chunks_is_a_clear_error() {
     const VAR: &str = "KIOSK_TEST_LAZ_FILE";
     if let Some(path) = std::env::var_os(VAR) {
         // The child: one read, its outcome printed.
-        let got = source::read_file(std::path::Path::new(&path), &ReadOptions::default(), &mut |_| Ok(()));
+        let got = formats::read_file(std::path::Path::new(&path), &ReadOptions::default(), &mut |_| Ok(()));
         match got {
             Ok(r) => println!("child: loaded {} points", r.points),
             Err(e) => println!("child: error: {e}"),

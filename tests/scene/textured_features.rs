@@ -5,7 +5,7 @@
 //! written by the test into a temporary directory.
 
 use glam::DVec3;
-use kiosk_import::source::read_all;
+use kiosk_import::read_all;
 use kiosk_import::{InputPoint, ReadOptions};
 use serde_json::{Value, json};
 use std::collections::BTreeSet;

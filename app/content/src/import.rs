@@ -109,7 +109,7 @@ pub fn import_locked(
     let mut builder = Builder::new(opts.build, &work.path)?;
     progress(Phase::Reading, 0, 0);
     let mut feed = Feed { builder: &mut builder, progress: &mut *progress, read: 0, expected: 0 };
-    let report = source::read_file(scan, &opts.read, &mut feed)
+    let report = kiosk_import::read_file(scan, &opts.read, &mut feed)
         .map_err(|e| anyhow::Error::new(e).context(scan.display().to_string()))?;
     let staged = work.path.join("store.kstore");
     let summary = builder

@@ -8,7 +8,7 @@
 //! - radius = `radius_factor` × h (0.8 covers a square grid of step h, whose worst gap is h/√2).
 //!
 //! Only what the input lacks is estimated: a mesh's vertices bring their normals and spacings
-//! (the same side of the area each covers, from the faces: `source::apply_triangles`).
+//! (the same side of the area each covers, from the faces: `formats::mesh::apply_triangles`).
 //!
 //! The normal is computed in `f64` from the smallest root of the covariance's characteristic
 //! cubic (`smallest_eigenvector`: Newton's method, no trigonometry), with Jacobi rotations where

@@ -5,8 +5,6 @@
 pub mod build;
 pub mod estimate;
 pub mod formats;
-mod lines;
-pub mod ply;
 pub mod source;
 pub mod writer;
 
@@ -19,7 +17,8 @@ pub use build::{BuildError, BuildParams, BuildSummary, Builder, Stage};
 /// mesh with materials (OBJ with MTL, glTF, PLY naming a texture) is sampled on its surface with
 /// its texture's colours, where it gave its vertices in grey before.
 pub const BUILDER_REVISION: u32 = 4;
-pub use source::{InputPoint, ReadError, ReadOptions, ReadReport};
+pub use formats::{ReadError, read_all, read_file};
+pub use source::{InputPoint, ReadOptions, ReadReport, Sink};
 
 /// Reads into `buf` until it is full or the input ends; returns the bytes read.
 pub(crate) fn read_full(r: &mut (impl std::io::Read + ?Sized), buf: &mut [u8]) -> std::io::Result<usize> {

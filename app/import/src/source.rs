@@ -1,17 +1,9 @@
-//! The readers' common interface: a scan becomes a stream of [`InputPoint`]s handed to a
-//! [`Sink`] (the builder), with a [`ReadReport`]; [`read_file`] picks the reader by the file's
-//! content ([`crate::formats::detect`]). The readers themselves are in [`crate::formats`]: PLY
-//! and OBJ (their faces give meshes normals, radii and spacings: [`crate::formats::mesh`]), LAS
-//! and LAZ, E57. Non-finite coordinates are an error naming the row, or are dropped and counted
-//! with `drop_invalid`.
+//! What every reader gives and takes: a scan becomes a stream of [`InputPoint`]s handed to a
+//! [`Sink`] (the builder, or a closure), read with [`ReadOptions`], and a [`ReadReport`]. The
+//! readers themselves, one module per format, and the dispatch of a file to its reader are in
+//! [`crate::formats`]. This module depends on no other of the crate.
 
-pub use crate::formats::gzip::open;
-pub use crate::formats::obj::read_obj;
-pub use crate::formats::ply::read_ply;
-use crate::ply::PlyError;
 use glam::{DVec3, Vec3};
-use std::io::BufReader;
-use std::path::Path;
 
 /// One sample as read from a file.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -76,113 +68,6 @@ impl Default for ReadOptions {
     }
 }
 
-impl ReadOptions {
-    /// The sampling parameters of a surface whose vertices span `positions`.
-    pub(crate) fn sample_params(
-        &self,
-        positions: impl Iterator<Item = DVec3>,
-    ) -> crate::formats::surface::SampleParams {
-        crate::formats::surface::SampleParams {
-            texel_density: self.texel_density,
-            fill_spacing: crate::formats::surface::Surface::fill_spacing(positions, self.fill_divisions),
-            max_samples: self.max_samples,
-        }
-    }
-}
-
-/// Why a scan cannot be read: the readers' own errors, or `E`, the error of the consumer of the
-/// points ([`Sink::Error`]) that stopped the reading, as it gave it (a builder's I/O error stays
-/// an I/O error).
-#[derive(Debug, thiserror::Error)]
-pub enum ReadError<E = std::convert::Infallible> {
-    /// The PLY reader failed.
-    #[error(transparent)]
-    Ply(#[from] PlyError),
-    /// I/O failure.
-    #[error("read error: {0}")]
-    Io(std::io::Error),
-    /// The file is readable but is not a usable point set.
-    #[error("{0}")]
-    Unusable(String),
-    /// A sample has a non-finite coordinate.
-    #[error("{element} row {row}{}: non-finite coordinate ({x}, {y}, {z})", .line.map(|l| format!(" (line {l})")).unwrap_or_default())]
-    NonFinite {
-        /// Element ("vertex" or "v" for OBJ).
-        element: String,
-        /// 1-based row.
-        row: u64,
-        /// 1-based line when known.
-        line: Option<usize>,
-        /// Coordinates.
-        x: f64,
-        /// Coordinates.
-        y: f64,
-        /// Coordinates.
-        z: f64,
-    },
-    /// Rejected by the consumer of the points.
-    #[error(transparent)]
-    Sink(E),
-    /// Not a format the importer reads.
-    #[error(transparent)]
-    Format(#[from] crate::formats::DetectError),
-    /// The LAS/LAZ reader failed.
-    #[error("LAS: {0}")]
-    Las(crate::formats::las::LasError),
-    /// The E57 reader failed.
-    #[error("E57: {0}")]
-    E57(crate::formats::e57::E57Error),
-    /// The OBJ reader failed.
-    #[error(transparent)]
-    Obj(#[from] crate::formats::obj::ObjError),
-    /// The glTF reader failed.
-    #[error("glTF: {0}")]
-    Gltf(crate::formats::gltf::GltfError),
-    /// A texture of the mesh cannot be used.
-    #[error(transparent)]
-    Texture(#[from] crate::formats::texture::TextureError),
-}
-
-// The wrapped errors' messages are in the variants' own (one line that says it all), so they are
-// not also given as sources: a report of the chain would print each message twice.
-impl<E> From<std::io::Error> for ReadError<E> {
-    fn from(e: std::io::Error) -> Self {
-        Self::Io(e)
-    }
-}
-
-impl<E> From<crate::formats::gltf::GltfError> for ReadError<E> {
-    fn from(e: crate::formats::gltf::GltfError) -> Self {
-        Self::Gltf(e)
-    }
-}
-
-impl<E> ReadError<E> {
-    /// Whether the reading stopped at a sample with a non-finite coordinate (which
-    /// [`ReadOptions::drop_invalid`] would have dropped).
-    pub fn is_non_finite(&self) -> bool {
-        use crate::formats::las::LasError;
-        matches!(
-            self,
-            Self::NonFinite { .. }
-                | Self::Las(LasError::NonFinite { .. })
-                | Self::Ply(PlyError::NonFinite { .. })
-        )
-    }
-}
-
-impl<E> From<crate::formats::las::LasError<E>> for ReadError<E> {
-    fn from(e: crate::formats::las::LasError<E>) -> Self {
-        e.split().map_or_else(Self::Sink, Self::Las)
-    }
-}
-
-impl<E> From<crate::formats::e57::E57Error<E>> for ReadError<E> {
-    fn from(e: crate::formats::e57::E57Error<E>) -> Self {
-        e.split().map_or_else(Self::Sink, Self::E57)
-    }
-}
-
 /// What a read produced besides the points.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ReadReport {
@@ -207,7 +92,7 @@ pub struct ReadReport {
 /// takes a mesh's vertices over whole, and a survey reader's batches a batch at a time).
 pub trait Sink {
     /// Why it stops taking points: given back to the reader's caller as it is
-    /// ([`ReadError::Sink`]; an error type, for [`ReadError`] to be one).
+    /// ([`crate::formats::ReadError::Sink`]; an error type, for that to be one).
     type Error;
 
     /// Takes one point; an error stops the reading.
@@ -232,60 +117,4 @@ impl<F: FnMut(InputPoint) -> Result<(), std::convert::Infallible>> Sink for F {
     fn point(&mut self, p: InputPoint) -> Result<(), Self::Error> {
         self(p)
     }
-}
-
-impl Sink for crate::Builder {
-    type Error = crate::BuildError;
-
-    fn point(&mut self, p: InputPoint) -> Result<(), Self::Error> {
-        self.push(p)
-    }
-
-    fn points(&mut self, points: Vec<InputPoint>) -> Result<(), Self::Error> {
-        self.push_all(points)
-    }
-}
-
-/// Whether a file looks like OBJ (by extension, ignoring `.gz`).
-pub fn is_obj(path: &Path) -> bool {
-    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("").to_ascii_lowercase();
-    name.trim_end_matches(".gz").ends_with(".obj")
-}
-
-/// Reads a scan file in any format the importer knows ([`crate::formats::detect`]: by content,
-/// gzip'd PLY and OBJ by extension).
-pub fn read_file<E>(
-    path: &Path,
-    opts: &ReadOptions,
-    sink: &mut dyn Sink<Error = E>,
-) -> Result<ReadReport, ReadError<E>> {
-    use crate::formats::{Format, detect};
-    match detect(path)? {
-        Format::Las => Ok(crate::formats::las::read(path, sink)?),
-        Format::E57 => Ok(crate::formats::e57::read(path, sink)?),
-        Format::Obj => crate::formats::obj::read_obj_in(&mut open(path)?, path.parent(), opts, sink),
-        Format::Ply => crate::formats::ply::read_ply_in(&mut open(path)?, path.parent(), opts, sink),
-        Format::Gltf => crate::formats::gltf::read(path, opts, sink),
-    }
-}
-
-/// Reads a whole file into memory (for small files and tests).
-pub fn read_all(path: &Path, opts: &ReadOptions) -> Result<(Vec<InputPoint>, ReadReport), ReadError> {
-    let mut pts = Vec::new();
-    let rep = read_file(path, opts, &mut |p| {
-        pts.push(p);
-        Ok(())
-    })?;
-    Ok((pts, rep))
-}
-
-/// Reads from any byte source (PLY).
-pub fn read_ply_bytes(bytes: &[u8], opts: &ReadOptions) -> Result<(Vec<InputPoint>, ReadReport), ReadError> {
-    let mut pts = Vec::new();
-    let mut r = BufReader::new(bytes);
-    let rep = read_ply(&mut r, opts, &mut |p| {
-        pts.push(p);
-        Ok(())
-    })?;
-    Ok((pts, rep))
 }

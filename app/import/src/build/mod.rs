@@ -448,6 +448,19 @@ fn writer_counts(w: &StoreWriter, root: u32) -> (u64, u64) {
     (leaf, total)
 }
 
+/// The builder takes a mesh's vertices over whole, and a survey reader's batches a batch at a time.
+impl crate::source::Sink for Builder {
+    type Error = crate::BuildError;
+
+    fn point(&mut self, p: InputPoint) -> Result<(), Self::Error> {
+        self.push(p)
+    }
+
+    fn points(&mut self, points: Vec<InputPoint>) -> Result<(), Self::Error> {
+        self.push_all(points)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

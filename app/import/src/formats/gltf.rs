@@ -10,7 +10,8 @@
 
 use super::surface::{Material, Surface, Tri};
 use super::texture::{Texture, TextureError, Wrap};
-use crate::source::{ReadError, ReadOptions, ReadReport, Sink};
+use crate::formats::ReadError;
+use crate::source::{ReadOptions, ReadReport, Sink};
 use glam::{DMat3, DMat4, DVec3, Vec3};
 use std::path::Path;
 use std::sync::Arc;

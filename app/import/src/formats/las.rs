@@ -47,7 +47,7 @@ pub enum LasError<E = std::convert::Infallible> {
 }
 
 // The decoder's message is in the variants' own, so it is not also a source (see
-// `source::ReadError`).
+// `crate::formats::ReadError`).
 impl<E> From<::las::Error> for LasError<E> {
     fn from(e: ::las::Error) -> Self {
         Self::Las(e)

@@ -9,7 +9,8 @@
 //! indices after it stay right; its triangles give nothing to their other vertices.
 
 use super::surface::{NO_MATERIAL, SampleParams, Surface, Tri, linear_color};
-use crate::source::{InputPoint, ReadError, ReadReport, Sink};
+use crate::formats::ReadError;
+use crate::source::{InputPoint, ReadReport, Sink};
 use glam::{DVec3, Vec3};
 
 /// Vertices buffered to apply face normals.

@@ -1,20 +1,25 @@
 //! The reader layer: which format a scan file is in, decided from its content (the extension
-//! only tells PLY from OBJ inside gzip, and `.gltf` JSON), and one module per format: LAS/LAZ,
-//! E57 and glTF with their own typed errors, PLY over the parser of [`crate::ply`] (its
-//! [`crate::ply::PlyError`]), OBJ over the line reader; [`crate::source`] dispatches a file to
-//! its reader.
+//! only tells PLY from OBJ inside gzip, and `.gltf` JSON), [`read_file`] dispatching a file to
+//! its reader, and one module per format, each with its typed error: LAS/LAZ, E57, glTF, PLY
+//! (over its parser, [`ply::parse`]) and OBJ (over the block line reader, `lines`). Meshes share
+//! [`mesh`] (normals and spacings from faces) and [`surface`] (sampling triangles, with
+//! [`texture`]). What the readers give and take is in [`crate::source`]; [`ReadError`] is any
+//! reader's error, or the consumer's that stopped it.
 
 pub mod e57;
 pub mod gltf;
 pub mod gzip;
 pub mod las;
+pub(crate) mod lines;
 pub(crate) mod mesh;
 pub mod obj;
 pub mod ply;
 pub mod surface;
 pub mod texture;
 
-use std::io::Read;
+use crate::source::{InputPoint, ReadOptions, ReadReport, Sink};
+use ply::parse::PlyError;
+use std::io::{BufReader, Read};
 use std::path::Path;
 
 /// A scan file's format.
@@ -47,7 +52,7 @@ pub enum DetectError {
 }
 
 // The message is in the variant's own, so the I/O error is not also a source (see
-// `source::ReadError`).
+// `ReadError`).
 impl From<std::io::Error> for DetectError {
     fn from(e: std::io::Error) -> Self {
         Self::Io(e)
@@ -148,4 +153,140 @@ pub(crate) fn guarded<T, E>(
 /// Converts a colour channel of `bits` bits to 8 bits.
 pub(crate) fn to_u8(v: f64, max: f64) -> u8 {
     (v / max * 255.0).round().clamp(0.0, 255.0) as u8
+}
+
+/// Why a scan cannot be read: the readers' own errors, or `E`, the error of the consumer of the
+/// points ([`Sink::Error`]) that stopped the reading, as it gave it (a builder's I/O error stays
+/// an I/O error).
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError<E = std::convert::Infallible> {
+    /// The PLY reader failed.
+    #[error(transparent)]
+    Ply(#[from] PlyError),
+    /// I/O failure.
+    #[error("read error: {0}")]
+    Io(std::io::Error),
+    /// The file is readable but is not a usable point set.
+    #[error("{0}")]
+    Unusable(String),
+    /// A sample has a non-finite coordinate.
+    #[error("{element} row {row}{}: non-finite coordinate ({x}, {y}, {z})", .line.map(|l| format!(" (line {l})")).unwrap_or_default())]
+    NonFinite {
+        /// Element ("vertex" or "v" for OBJ).
+        element: String,
+        /// 1-based row.
+        row: u64,
+        /// 1-based line when known.
+        line: Option<usize>,
+        /// Coordinates.
+        x: f64,
+        /// Coordinates.
+        y: f64,
+        /// Coordinates.
+        z: f64,
+    },
+    /// Rejected by the consumer of the points.
+    #[error(transparent)]
+    Sink(E),
+    /// Not a format the importer reads.
+    #[error(transparent)]
+    Format(#[from] DetectError),
+    /// The LAS/LAZ reader failed.
+    #[error("LAS: {0}")]
+    Las(las::LasError),
+    /// The E57 reader failed.
+    #[error("E57: {0}")]
+    E57(e57::E57Error),
+    /// The OBJ reader failed.
+    #[error(transparent)]
+    Obj(#[from] obj::ObjError),
+    /// The glTF reader failed.
+    #[error("glTF: {0}")]
+    Gltf(gltf::GltfError),
+    /// A texture of the mesh cannot be used.
+    #[error(transparent)]
+    Texture(#[from] texture::TextureError),
+}
+
+// The wrapped errors' messages are in the variants' own (one line that says it all), so they are
+// not also given as sources: a report of the chain would print each message twice.
+impl<E> From<std::io::Error> for ReadError<E> {
+    fn from(e: std::io::Error) -> Self {
+        Self::Io(e)
+    }
+}
+
+impl<E> From<gltf::GltfError> for ReadError<E> {
+    fn from(e: gltf::GltfError) -> Self {
+        Self::Gltf(e)
+    }
+}
+
+impl<E> ReadError<E> {
+    /// Whether the reading stopped at a sample with a non-finite coordinate (which
+    /// [`ReadOptions::drop_invalid`] would have dropped).
+    pub fn is_non_finite(&self) -> bool {
+        use las::LasError;
+        matches!(
+            self,
+            Self::NonFinite { .. }
+                | Self::Las(LasError::NonFinite { .. })
+                | Self::Ply(PlyError::NonFinite { .. })
+        )
+    }
+}
+
+impl<E> From<las::LasError<E>> for ReadError<E> {
+    fn from(e: las::LasError<E>) -> Self {
+        e.split().map_or_else(Self::Sink, Self::Las)
+    }
+}
+
+impl<E> From<e57::E57Error<E>> for ReadError<E> {
+    fn from(e: e57::E57Error<E>) -> Self {
+        e.split().map_or_else(Self::Sink, Self::E57)
+    }
+}
+
+/// Whether a file looks like OBJ (by extension, ignoring `.gz`).
+pub fn is_obj(path: &Path) -> bool {
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("").to_ascii_lowercase();
+    name.trim_end_matches(".gz").ends_with(".obj")
+}
+
+/// Reads a scan file in any format the importer knows ([`detect`]: by content,
+/// gzip'd PLY and OBJ by extension).
+pub fn read_file<E>(
+    path: &Path,
+    opts: &ReadOptions,
+    sink: &mut dyn Sink<Error = E>,
+) -> Result<ReadReport, ReadError<E>> {
+    match detect(path)? {
+        Format::Las => Ok(las::read(path, sink)?),
+        Format::E57 => Ok(e57::read(path, sink)?),
+        Format::Obj => obj::read_obj_in(&mut gzip::open(path)?, path.parent(), opts, sink),
+        Format::Ply => ply::read_ply_in(&mut gzip::open(path)?, path.parent(), opts, sink),
+        Format::Gltf => gltf::read(path, opts, sink),
+    }
+}
+
+/// Reads a whole file into memory (for small files and tests).
+pub fn read_all(path: &Path, opts: &ReadOptions) -> Result<(Vec<InputPoint>, ReadReport), ReadError> {
+    let mut pts = Vec::new();
+    let rep = read_file(path, opts, &mut |p| {
+        pts.push(p);
+        Ok(())
+    })?;
+    Ok((pts, rep))
+}
+
+/// Reads from any byte source (PLY).
+pub fn read_ply_bytes(bytes: &[u8], opts: &ReadOptions) -> Result<(Vec<InputPoint>, ReadReport), ReadError> {
+    let mut pts = Vec::new();
+    let mut r = BufReader::new(bytes);
+    let rep = ply::read_ply(&mut r, opts, &mut |p| {
+        pts.push(p);
+        Ok(())
+    })?;
+    Ok((pts, rep))
 }

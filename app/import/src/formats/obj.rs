@@ -1,16 +1,17 @@
 //! Wavefront OBJ as points: `v` (with optional colour) and `f` (`a/b/c` and negative indices),
-//! read in blocks of lines parsed in parallel ([`crate::lines`]). With materials (`mtllib`,
+//! read in blocks of lines parsed in parallel ([`crate::formats::lines`]). With materials (`mtllib`,
 //! `usemtl`: [`mtl`]) and texture coordinates (`vt`), the mesh is sampled on its surface
 //! ([`crate::formats::surface`]): every triangle at the spacing of its texel footprint, coloured
 //! from its material's `map_Kd` times its `Kd`. Other statements are ignored.
 
 use super::mesh::Buffered;
 use super::ply::color_channel;
+use super::ply::parse as ply;
 use super::surface::{Material, NO_MATERIAL, Surface, Tri, linear_color};
 use super::texture::{TextureCache, TextureError, Wrap};
-use crate::lines::{Stop, Tokens, parse_i64};
-use crate::ply;
-use crate::source::{InputPoint, ReadError, ReadOptions, ReadReport, Sink};
+use crate::formats::ReadError;
+use crate::formats::lines::{Stop, Tokens, parse_i64};
+use crate::source::{InputPoint, ReadOptions, ReadReport, Sink};
 use glam::{DVec3, Vec3};
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
@@ -54,7 +55,7 @@ pub fn read_obj<E>(
 /// Reads an OBJ stream whose material libraries and textures are found relative to `dir` (the
 /// OBJ file's directory): `v x y z [r g b]` vertices, `vt` texture coordinates, `f` faces,
 /// `mtllib` and `usemtl`. Other statements (`vn`, groups, comments, in any encoding) are
-/// ignored. Read in blocks of lines parsed in parallel ([`crate::lines`]), visited in order.
+/// ignored. Read in blocks of lines parsed in parallel ([`crate::formats::lines`]), visited in order.
 pub fn read_obj_in<E>(
     r: &mut dyn BufRead,
     dir: Option<&Path>,
@@ -206,12 +207,13 @@ pub fn read_obj_in<E>(
         }
         Ok(())
     };
-    crate::lines::read(r, &ObjLines, 0, &mut visit, |stop, at| {
+    crate::formats::lines::read(r, &ObjLines, 0, &mut visit, |stop, at| {
         Err(match stop {
             Stop::Io(e) => ReadError::Io(e),
-            Stop::Overlong => {
-                unusable(at + 1, format!("longer than {} MiB (binary data?)", crate::lines::MAX_LINE >> 20))
-            }
+            Stop::Overlong => unusable(
+                at + 1,
+                format!("longer than {} MiB (binary data?)", crate::formats::lines::MAX_LINE >> 20),
+            ),
         })
     })?;
     if report.rows == 0 {
@@ -564,13 +566,13 @@ pub(crate) struct ObjParsed {
 /// OBJ as blocks of lines; reading stands at a number of lines.
 pub(crate) struct ObjLines;
 
-impl crate::lines::Format for ObjLines {
+impl crate::formats::lines::Format for ObjLines {
     type At = usize;
     type Out = ObjParsed;
 
     fn scan(&self, block: &[u8], mut line: usize, out: &mut ObjParsed) -> usize {
         out.lines.clear();
-        for (start, end) in crate::lines::lines(block) {
+        for (start, end) in crate::formats::lines::lines(block) {
             line += 1;
             if matches!(
                 Tokens::new(&block[start..end]).next(),
@@ -583,7 +585,7 @@ impl crate::lines::Format for ObjLines {
     }
 
     fn parse(&self, block: &[u8], out: &mut ObjParsed) {
-        crate::lines::in_pieces(&out.lines, &mut out.pieces, |_, lines, p| {
+        crate::formats::lines::in_pieces(&out.lines, &mut out.pieces, |_, lines, p| {
             p.stmts.clear();
             p.values.clear();
             p.indices.clear();

@@ -23,7 +23,8 @@
 //! in the same order whatever the number of threads, and memory bounded by a batch.
 
 use super::texture::{Texture, encode_srgb, srgb_to_linear_lut};
-use crate::source::{InputPoint, ReadError, ReadReport, Sink};
+use crate::formats::ReadError;
+use crate::source::{InputPoint, ReadReport, Sink};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -350,6 +351,17 @@ impl Surface {
 pub(crate) fn linear_color(c: [u8; 4]) -> [f32; 4] {
     let lut = srgb_to_linear_lut();
     [lut[c[0] as usize], lut[c[1] as usize], lut[c[2] as usize], f32::from(c[3]) / 255.0]
+}
+
+impl crate::source::ReadOptions {
+    /// The sampling parameters of a surface whose vertices span `positions`.
+    pub(crate) fn sample_params(&self, positions: impl Iterator<Item = DVec3>) -> SampleParams {
+        SampleParams {
+            texel_density: self.texel_density,
+            fill_spacing: Surface::fill_spacing(positions, self.fill_divisions),
+            max_samples: self.max_samples,
+        }
+    }
 }
 
 #[cfg(test)]

@@ -1,6 +1,6 @@
 //! PLY files as points: the `vertex` element's positions, normals and colours (any scalar type,
 //! colours scaled to 8 bits), and the `face` element's polygons for the mesh terms of
-//! [`crate::formats::mesh`]. The low-level parser is [`crate::ply`].
+//! [`crate::formats::mesh`]. The low-level parser is [`crate::formats::ply::parse`].
 //!
 //! A textured PLY (MeshLab, Agisoft: `comment TextureFile NAME`, the image beside the file,
 //! with per-face `texcoord` lists or per-vertex `s t`, `u v`, `texture_u texture_v`) is sampled
@@ -9,18 +9,21 @@
 //! order; without it the first texture serves every face. The texture alone gives the colour
 //! (MeshLab writes its default grey as the vertices' colour of a textured mesh).
 
+pub mod parse;
+
 use super::mesh::{Buffered, dropped_vertex, polygon_triangles};
 use super::surface::{Material, Surface, Tri};
 use super::texture::Texture;
-use crate::ply::{self, PlyError, PropKind};
-use crate::source::{InputPoint, ReadError, ReadOptions, ReadReport, Sink};
+use crate::formats::ReadError;
+use crate::source::{InputPoint, ReadOptions, ReadReport, Sink};
 use glam::{DVec3, Vec3};
+use parse::{PlyError, PropKind};
 use std::io::BufRead;
 use std::path::Path;
 use std::sync::Arc;
 
-pub(crate) fn color_channel(v: f64, ty: ply::Scalar) -> u8 {
-    use ply::Scalar::*;
+pub(crate) fn color_channel(v: f64, ty: parse::Scalar) -> u8 {
+    use parse::Scalar::*;
     let x = match ty {
         F32 | F64 => v * 255.0,
         U16 | I16 => v / 257.0,
@@ -46,7 +49,7 @@ pub fn read_ply_in<E>(
     opts: &ReadOptions,
     sink: &mut dyn Sink<Error = E>,
 ) -> Result<ReadReport, ReadError<E>> {
-    let header = ply::read_header(r)?;
+    let header = parse::read_header(r)?;
     let mut report = ReadReport { warnings: header.warnings.clone(), ..Default::default() };
     let names: Vec<&str> = header.elements.iter().map(|e| e.name.as_str()).collect();
     let vi = header.elements.iter().position(|e| e.name == "vertex").ok_or_else(|| {
@@ -183,7 +186,7 @@ pub fn read_ply_in<E>(
     let (mut uvs, mut tri_uvs, mut tri_tex) = (Vec::new(), Vec::new(), Vec::new());
     let mut dropped = 0u64;
     let mut sink_err = None;
-    let body_warnings = ply::read_body_converted(r, &header, &conv, |out: &mut PlyOut| {
+    let body_warnings = parse::read_body_converted(r, &header, &conv, |out: &mut PlyOut| {
         report.rows += out.rows;
         report.faces_used += out.faces;
         dropped += out.dropped;
@@ -283,7 +286,7 @@ fn sample_textured<E>(
     Ok(report)
 }
 
-/// How [`read_ply`] converts the rows of a PLY body (on the pool, [`ply::Convert`]): vertices
+/// How [`read_ply`] converts the rows of a PLY body (on the pool, [`parse::Convert`]): vertices
 /// into samples, faces into triangles (where they are used).
 pub(crate) struct PlyRows {
     /// The vertex element, and the face element and its index list.
@@ -292,8 +295,8 @@ pub(crate) struct PlyRows {
     /// Where a vertex row holds its position, normal, colour and alpha (with their types).
     pos_idx: [usize; 3],
     normal_idx: Option<[usize; 3]>,
-    color_idx: Option<Vec<(usize, ply::Scalar)>>,
-    alpha_idx: Option<(usize, ply::Scalar)>,
+    color_idx: Option<Vec<(usize, parse::Scalar)>>,
+    alpha_idx: Option<(usize, parse::Scalar)>,
     /// Whether the faces give the vertices normals and radii (else only broken polygons are
     /// looked at: an error either way).
     use_faces: bool,
@@ -328,7 +331,7 @@ pub(crate) struct PlyOut {
     tri_tex: Vec<u32>,
 }
 
-impl ply::Convert for PlyRows {
+impl parse::Convert for PlyRows {
     type Out = PlyOut;
 
     fn clear(&self, out: &mut PlyOut) {
@@ -340,7 +343,7 @@ impl ply::Convert for PlyRows {
         (out.rows, out.dropped, out.faces, out.unchecked) = (0, 0, 0, false);
     }
 
-    fn convert(&self, ei: usize, ri: u64, row: &ply::Row, out: &mut PlyOut) -> Result<(), PlyError> {
+    fn convert(&self, ei: usize, ri: u64, row: &parse::Row, out: &mut PlyOut) -> Result<(), PlyError> {
         if ei == self.vi {
             out.rows += 1;
             let [x, y, z] = self.pos_idx.map(|i| row.values[i]);

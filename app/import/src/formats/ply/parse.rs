@@ -233,7 +233,7 @@ pub enum PlyError {
 }
 
 // The message is in the variant's own, so the I/O error is not also a source (see
-// `source::ReadError`).
+// `crate::formats::ReadError`).
 impl From<std::io::Error> for PlyError {
     fn from(e: std::io::Error) -> Self {
         Self::Io(e)

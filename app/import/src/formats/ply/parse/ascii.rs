@@ -1,13 +1,13 @@
 //! ASCII bodies: every row of every element is one line.
 //!
-//! The body is read in blocks of whole lines ([`crate::lines`]). The lines of a block are
+//! The body is read in blocks of whole lines ([`crate::formats::lines`]). The lines of a block are
 //! assigned to their element and row in one cheap scan, then parsed and converted in pieces in
 //! parallel; the pieces' conversions are taken in order. Errors are those a line-by-line reader
 //! would give, in the same order: a row is taken only if every row before it parsed and
 //! converted.
 
 use super::{Convert, Element, Header, PlyError, PropKind, Property, Row, Scalar, short};
-use crate::lines::{self, Stop, Tokens};
+use crate::formats::lines::{self, Stop, Tokens};
 use std::io::BufRead;
 
 /// Where reading stands between blocks.
