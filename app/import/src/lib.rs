@@ -15,8 +15,9 @@ pub use build::{BuildError, BuildParams, BuildSummary, Builder, Stage};
 /// cached from a scan (the kiosk's exhibits) are built again by the new code. 2: a mesh's
 /// spacings from its faces; 3: normals of opposite orientation merge in simplification; 4: a
 /// mesh with materials (OBJ with MTL, glTF, PLY naming a texture) is sampled on its surface with
-/// its texture's colours, where it gave its vertices in grey before.
-pub const BUILDER_REVISION: u32 = 4;
+/// its texture's colours, where it gave its vertices in grey before; 5: glTF spec-gloss
+/// materials take their diffuse colour, and a textured PLY beyond the face limit its texture.
+pub const BUILDER_REVISION: u32 = 5;
 pub use formats::{ReadError, read_all, read_file};
 pub use source::{InputPoint, ReadOptions, ReadReport, Sink};
 
