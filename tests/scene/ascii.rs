@@ -388,3 +388,29 @@ fn faces_before_their_vertices_are_checked_once_every_vertex_is_read() {
         .to_string();
     assert!(err.contains("a face refers to vertex 5 but the file has 3 vertices"), "{err}");
 }
+
+#[test]
+fn a_ply_without_positions_is_a_typed_error_naming_what_it_lacks() {
+    let read = |text: &str| {
+        formats::read_ply_bytes(text.as_bytes(), &ReadOptions::default()).expect_err("no positions")
+    };
+    let e =
+        read("ply\nformat ascii 1.0\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n");
+    assert!(
+        matches!(&e, kiosk_import::ReadError::Ply(PlyError::NoVertexElement { elements }) if elements == &["face"]),
+        "{e:?}"
+    );
+    assert_eq!(e.to_string(), "no 'vertex' element (elements: face)");
+    let e = read(
+        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n1 2\n",
+    );
+    assert!(
+        matches!(&e, kiosk_import::ReadError::Ply(PlyError::NoPositions { missing }) if missing == &["z"]),
+        "{e:?}"
+    );
+    assert_eq!(e.to_string(), "element 'vertex' has no scalar property z: it holds no 3D positions");
+    let e = read(
+        "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\nend_header\n",
+    );
+    assert!(matches!(e, kiosk_import::ReadError::Ply(PlyError::NoVertices)), "{e:?}");
+}

@@ -8,7 +8,7 @@
 //! in file order, so both ways give the same values. A dropped vertex keeps its place, so the face
 //! indices after it stay right; its triangles give nothing to their other vertices.
 
-use super::surface::{NO_MATERIAL, SampleParams, Surface, Tri, linear_color};
+use super::surface::{NO_MATERIAL, SampleParams, Surface, SurfaceError, Tri, linear_color};
 use crate::formats::ReadError;
 use crate::source::{InputPoint, ReadReport, Sink};
 use glam::{DVec3, Vec3};
@@ -118,10 +118,10 @@ impl Buffered {
     pub(crate) fn check_indices<E>(&self) -> Result<(), ReadError<E>> {
         let n = self.points.len();
         match self.tris.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
-            Some(t) => Err(ReadError::Unusable(format!(
-                "a face refers to vertex {} but the file has {n} vertices (indices start at 0)",
-                t.iter().max().copied().unwrap_or(0)
-            ))),
+            Some(t) => {
+                Err(SurfaceError::FaceVertex { vertex: t.iter().max().copied().unwrap_or(0), vertices: n }
+                    .into())
+            }
             None => Ok(()),
         }
     }

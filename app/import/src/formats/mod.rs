@@ -166,9 +166,9 @@ pub enum ReadError<E = std::convert::Infallible> {
     /// I/O failure.
     #[error("read error: {0}")]
     Io(std::io::Error),
-    /// The file is readable but is not a usable point set.
-    #[error("{0}")]
-    Unusable(String),
+    /// A mesh's triangles cannot be sampled.
+    #[error(transparent)]
+    Surface(#[from] surface::SurfaceError),
     /// A sample has a non-finite coordinate.
     #[error("{element} row {row}{}: non-finite coordinate ({x}, {y}, {z})", .line.map(|l| format!(" (line {l})")).unwrap_or_default())]
     NonFinite {

@@ -184,20 +184,13 @@ impl Surface {
         let n = self.positions.len();
         if let Some((k, t)) = self.tris.iter().enumerate().find(|(_, t)| t.v.iter().any(|&i| i as usize >= n))
         {
-            return Err(ReadError::Unusable(format!(
-                "triangle {} refers to vertex {} but there are {n} vertices",
-                k + 1,
-                t.v.iter().max().copied().unwrap_or(0)
-            )));
+            let vertex = t.v.iter().max().copied().unwrap_or(0);
+            return Err(SurfaceError::TriangleVertex { triangle: k + 1, vertex, vertices: n }.into());
         }
         let divisions: Vec<u32> = self.tris.par_iter().map(|t| self.divisions(t, params)).collect();
         let total: u64 = divisions.iter().map(|&d| u64::from(d) * u64::from(d)).sum();
         if total > params.max_samples {
-            return Err(ReadError::Unusable(format!(
-                "sampling the surface at the texel density asked for would make {total} samples, more than \
-                 the limit of {}: lower the texel density",
-                params.max_samples
-            )));
+            return Err(SurfaceError::TooManySamples { samples: total, limit: params.max_samples }.into());
         }
         let smooth = self.smooth_normals();
         let vertex_colors = &self.colors;
@@ -362,6 +355,40 @@ impl crate::source::ReadOptions {
             max_samples: self.max_samples,
         }
     }
+}
+
+/// Why a mesh's triangles cannot be sampled.
+#[derive(Debug, thiserror::Error)]
+pub enum SurfaceError {
+    /// A face (a PLY's, read before its vertices) names a vertex the file does not have.
+    #[error("a face refers to vertex {vertex} but the file has {vertices} vertices (indices start at 0)")]
+    FaceVertex {
+        /// The index named.
+        vertex: u32,
+        /// The vertices there are.
+        vertices: usize,
+    },
+    /// A triangle names a vertex the mesh does not have.
+    #[error("triangle {triangle} refers to vertex {vertex} but there are {vertices} vertices")]
+    TriangleVertex {
+        /// 1-based triangle.
+        triangle: usize,
+        /// The index named.
+        vertex: u32,
+        /// The vertices there are.
+        vertices: usize,
+    },
+    /// Sampling at the density asked for would make too many samples (a corrupted file's
+    /// texture coordinates, or a density too high).
+    #[error(
+        "sampling the surface at the texel density asked for would make {samples} samples, more than the limit of {limit}: lower the texel density"
+    )]
+    TooManySamples {
+        /// The samples it would make.
+        samples: u64,
+        /// [`crate::ReadOptions::max_samples`].
+        limit: u64,
+    },
 }
 
 #[cfg(test)]

@@ -53,11 +53,7 @@ pub fn read_ply_in<E>(
     let mut report = ReadReport { warnings: header.warnings.clone(), ..Default::default() };
     let names: Vec<&str> = header.elements.iter().map(|e| e.name.as_str()).collect();
     let vi = header.elements.iter().position(|e| e.name == "vertex").ok_or_else(|| {
-        ReadError::Unusable(if names.is_empty() {
-            "no 'vertex' element: the file declares no elements".into()
-        } else {
-            format!("no 'vertex' element (elements: {})", names.join(", "))
-        })
+        PlyError::NoVertexElement { elements: names.iter().map(|n| n.to_string()).collect() }
     })?;
     let v = &header.elements[vi];
     let scalar = |name: &str| {
@@ -68,14 +64,10 @@ pub fn read_ply_in<E>(
     };
     let missing: Vec<&str> = ["x", "y", "z"].into_iter().filter(|n| scalar(n).is_none()).collect();
     if !missing.is_empty() {
-        return Err(ReadError::Unusable(format!(
-            "element 'vertex' has no scalar propert{} {}: it holds no 3D positions",
-            if missing.len() == 1 { "y" } else { "ies" },
-            missing.join(", ")
-        )));
+        return Err(PlyError::NoPositions { missing }.into());
     }
     if v.count == 0 {
-        return Err(ReadError::Unusable("the file has 0 vertices".into()));
+        return Err(PlyError::NoVertices.into());
     }
     let pos_idx = ["x", "y", "z"].map(|n| scalar(n).map_or(0, |s| s.0));
     let normal_idx = match ["nx", "ny", "nz"].map(scalar) {

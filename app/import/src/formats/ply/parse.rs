@@ -230,6 +230,21 @@ pub enum PlyError {
         /// The coordinates.
         z: f64,
     },
+    /// The header declares no `vertex` element.
+    #[error("no 'vertex' element{}", if .elements.is_empty() { ": the file declares no elements".to_string() } else { format!(" (elements: {})", .elements.join(", ")) })]
+    NoVertexElement {
+        /// The elements it declares.
+        elements: Vec<String>,
+    },
+    /// The `vertex` element lacks scalar `x`, `y` or `z`.
+    #[error("element 'vertex' has no scalar propert{} {}: it holds no 3D positions", if .missing.len() == 1 { "y" } else { "ies" }, .missing.join(", "))]
+    NoPositions {
+        /// The coordinates it lacks.
+        missing: Vec<&'static str>,
+    },
+    /// The `vertex` element has no rows.
+    #[error("the file has 0 vertices")]
+    NoVertices,
 }
 
 // The message is in the variant's own, so the I/O error is not also a source (see
