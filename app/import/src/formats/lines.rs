@@ -1,6 +1,6 @@
 //! Text read in blocks of whole lines: the reading thread reads each block (inflated ahead on a
 //! thread of its own when gzip'd: `formats::gzip`), scans it for where its lines belong,
-//! parses it in pieces on the rayon pool and visits the result, one block after the other. The
+//! parses it in pieces and visits the result, one block after the other. The
 //! ASCII PLY body and OBJ files are read this way; a format says how a block parses
 //! ([`Format`]) and its reader visits the results, so errors come in file order as a
 //! line-by-line reader would give them.
@@ -11,6 +11,11 @@
 //! Unicode included (a no-break space). Numbers are read in the same pass that finds the end of
 //! their token: floats by `fast-float2`'s partial parse (the values `str::parse` gives; it still
 //! reads the tokens `fast-float2` refuses), integers digit by digit.
+//!
+//! The pieces are parsed in order on the reading thread. Parsing them in parallel on the pool
+//! was measured side by side (release `kiosk import`, stores identical): 0.95 of the time on the
+//! dragon as uncompressed ASCII PLY, 0.97 as OBJ, 1.00 gzip'd (its inflating thread takes the
+//! other core) — under the 10 % a speed device must earn (docs/performance.md).
 
 use std::io::BufRead;
 
@@ -160,17 +165,16 @@ pub(crate) fn is_blank(line: &[u8]) -> bool {
     }
 }
 
-/// Parses `lines` in pieces of [`PIECE`] on the pool, one output per piece (`pieces` is resized
+/// Parses `lines` in pieces of [`PIECE`], in order, one output per piece (`pieces` is resized
 /// to their number; each output is reused from block to block, and `parse` clears it); `parse`
 /// is given the piece's index, its lines and its output.
-pub(crate) fn in_pieces<L: Sync, P: Default + Send>(
+pub(crate) fn in_pieces<L, P: Default>(
     lines: &[L],
     pieces: &mut Vec<P>,
-    parse: impl Fn(usize, &[L], &mut P) + Sync,
+    mut parse: impl FnMut(usize, &[L], &mut P),
 ) {
-    use rayon::prelude::*;
     pieces.resize_with(lines.len().div_ceil(PIECE), P::default);
-    lines.par_chunks(PIECE).zip(pieces.par_iter_mut()).enumerate().for_each(|(k, (ls, p))| parse(k, ls, p));
+    lines.chunks(PIECE).zip(pieces.iter_mut()).enumerate().for_each(|(k, (ls, p))| parse(k, ls, p));
 }
 
 /// Whitespace-separated tokens of a line: split by hand on ASCII whitespace, or as

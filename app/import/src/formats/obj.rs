@@ -1,5 +1,5 @@
 //! Wavefront OBJ as points: `v` (with optional colour) and `f` (`a/b/c` and negative indices),
-//! read in blocks of lines parsed in parallel ([`crate::formats::lines`]). With materials (`mtllib`,
+//! read in blocks of lines ([`crate::formats::lines`]). With materials (`mtllib`,
 //! `usemtl`: [`mtl`]) and texture coordinates (`vt`), the mesh is sampled on its surface
 //! ([`crate::formats::surface`]): every triangle at the spacing of its texel footprint, coloured
 //! from its material's `map_Kd` times its `Kd`. Other statements are ignored.
@@ -55,7 +55,7 @@ pub fn read_obj<E>(
 /// Reads an OBJ stream whose material libraries and textures are found relative to `dir` (the
 /// OBJ file's directory): `v x y z [r g b]` vertices, `vt` texture coordinates, `f` faces,
 /// `mtllib` and `usemtl`. Other statements (`vn`, groups, comments, in any encoding) are
-/// ignored. Read in blocks of lines parsed in parallel ([`crate::formats::lines`]), visited in order.
+/// ignored. Read in blocks of lines ([`crate::formats::lines`]), visited in order.
 pub fn read_obj_in<E>(
     r: &mut dyn BufRead,
     dir: Option<&Path>,

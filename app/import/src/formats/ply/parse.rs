@@ -8,7 +8,7 @@
 //! The reader is our own rather than a PLY crate: the kiosk needs errors that name the element,
 //! row and line, and tolerance of the quirks real scanners and tools write (the decisions on the
 //! test corpus, file by file, are in `tests/scene/corpus.rs`). ASCII bodies are parsed in
-//! parallel blocks of lines (`ascii`, over `crate::lines`). A binary element whose rows have a
+//! blocks of lines (`ascii`, over `crate::formats::lines`). A binary element whose rows have a
 //! fixed size (a point cloud's vertices) is read about 1 MiB of rows at a time and, when it spans
 //! more than one such batch, decoded and converted on a thread of its own a batch ahead; rows
 //! with lists (faces) are converted 4096 at a time. An element without properties has nothing to
@@ -381,9 +381,8 @@ impl Row {
     }
 }
 
-/// What a reader makes of the rows of a body, each row on its own: on the pool for ASCII bodies
-/// (parsed in pieces in parallel), on the decoding thread for binary rows of a fixed size, and
-/// on the reading thread otherwise. The results of consecutive rows are then taken in file
+/// What a reader makes of the rows of a body, each row on its own: on the decoding thread for
+/// binary rows of a fixed size, and on the reading thread otherwise (ASCII bodies in pieces). The results of consecutive rows are then taken in file
 /// order ([`read_body_converted`]), so that what is taken and the first error are those of a
 /// reader that converts one row after the other.
 pub trait Convert: Sync {

@@ -1,8 +1,8 @@
 //! ASCII bodies: every row of every element is one line.
 //!
 //! The body is read in blocks of whole lines ([`crate::formats::lines`]). The lines of a block are
-//! assigned to their element and row in one cheap scan, then parsed and converted in pieces in
-//! parallel; the pieces' conversions are taken in order. Errors are those a line-by-line reader
+//! assigned to their element and row in one cheap scan, then parsed and converted in pieces,
+//! whose conversions are taken in order. Errors are those a line-by-line reader
 //! would give, in the same order: a row is taken only if every row before it parsed and
 //! converted.
 
@@ -116,7 +116,7 @@ impl<C: Convert> lines::Format for Body<'_, C> {
         cursor
     }
 
-    /// Parses and converts the rows in pieces on the pool.
+    /// Parses and converts the rows in pieces.
     fn parse(&self, block: &[u8], p: &mut Self::Out) {
         let (before, firsts) = (p.before, &p.firsts);
         lines::in_pieces(&p.lines, &mut p.pieces, |k, ls, piece| {
