@@ -9,9 +9,8 @@
 //! row and line, and tolerance of the quirks real scanners and tools write (the decisions on the
 //! test corpus, file by file, are in `tests/scene/corpus.rs`). ASCII bodies are parsed in
 //! blocks of lines (`ascii`, over `crate::formats::lines`). A binary element whose rows have a
-//! fixed size (a point cloud's vertices) is read about 1 MiB of rows at a time and, when it spans
-//! more than one such batch, decoded and converted on a thread of its own a batch ahead; rows
-//! with lists (faces) are converted 4096 at a time. An element without properties has nothing to
+//! fixed size (a point cloud's vertices) is read about 1 MiB of rows at a time; rows with lists
+//! (faces) are converted 4096 at a time. An element without properties has nothing to
 //! read, whatever count its header claims. Damaged files (bytes flipped, inserted or deleted, cut
 //! short, header counts blown up: `tests/scene/mutations.rs`) give an error or what the file
 //! still says, never a panic.
@@ -381,8 +380,8 @@ impl Row {
     }
 }
 
-/// What a reader makes of the rows of a body, each row on its own: on the decoding thread for
-/// binary rows of a fixed size, and on the reading thread otherwise (ASCII bodies in pieces). The results of consecutive rows are then taken in file
+/// What a reader makes of the rows of a body, each row on its own, on the reading thread (ASCII
+/// bodies in pieces, binary rows of a fixed size a batch at a time). The results of consecutive rows are then taken in file
 /// order ([`read_body_converted`]), so that what is taken and the first error are those of a
 /// reader that converts one row after the other.
 pub trait Convert: Sync {
@@ -607,8 +606,9 @@ impl<R: BufRead + ?Sized, C: Convert> Batches<'_, R, C> {
 }
 
 /// Reads the rows of a binary element whose rows all have `size` bytes (scalars only), 1 MiB of
-/// rows per read. An element of more than one batch (the points of a large scan) is read,
-/// decoded and converted on a thread of its own, a batch ahead of the takes.
+/// rows per read, each batch decoded and converted, then taken. (Decoding a batch ahead on a
+/// thread of its own was measured side by side: a 5 M-point binary PLY imported in 0.97 of the
+/// time, under the 10 % a speed device must earn; docs/performance.md.)
 fn read_fixed_rows<C: Convert>(
     r: &mut (impl BufRead + Send + ?Sized),
     el: &Element,
@@ -637,38 +637,6 @@ fn read_fixed_rows<C: Convert>(
         }
         Ok(c.out)
     };
-    if el.count > batch {
-        let threaded = std::thread::scope(|s| {
-            let (converted_tx, converted) = std::sync::mpsc::channel::<std::io::Result<Converted<C::Out>>>();
-            // Buffers go round: at most three in use (converted, queued, taken).
-            let (spare, spare_rx) = std::sync::mpsc::channel::<C::Out>();
-            for _ in 0..3 {
-                spare.send(C::Out::default()).expect("its receiver is here");
-            }
-            let source = &mut batches;
-            // The decoder stops after the last batch, a short one or a failure (`next` has
-            // none after them), or when the takes stop (their side hangs up: it may finish the
-            // read it is in first).
-            let decoder = move || {
-                while let Ok(out) = spare_rx.recv() {
-                    let Some(c) = source.next(out) else { return };
-                    if converted_tx.send(c).is_err() {
-                        return;
-                    }
-                }
-            };
-            // Without a thread (the system refuses one), the rows are read below instead.
-            std::thread::Builder::new().name("ply rows".into()).spawn_scoped(s, decoder).ok()?;
-            Some(converted.into_iter().try_for_each(|c| {
-                // The decoder may be done already: the buffer is then dropped.
-                let _ = spare.send(take_batch(c?)?);
-                Ok(())
-            }))
-        });
-        if let Some(result) = threaded {
-            return result;
-        }
-    }
     let mut out = C::Out::default();
     while let Some(c) = batches.next(out) {
         out = take_batch(c?)?;
