@@ -5,6 +5,9 @@
 //! the clock: the shell hands it byte slices (memory maps) and timestamps. `clippy.toml` in this
 //! crate disallows the clock and the filesystem so the compiler guards that promise.
 
+// The core holds no unsafe code, and cannot be given any.
+#![forbid(unsafe_code)]
+
 pub mod camera;
 pub mod clock;
 pub mod explore;

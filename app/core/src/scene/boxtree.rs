@@ -226,30 +226,6 @@ impl<P: Copy> KBest<P> {
     }
 }
 
-/// Asks the processor to bring every cache line of `data` into the caches: a hint, with no effect
-/// on results (and nothing at all on processors other than x86-64).
-#[inline]
-fn prefetch<T>(data: &[T]) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        const LINE: usize = 64;
-        let Some(last) = std::mem::size_of_val(data).checked_sub(1) else { return };
-        let base = data.as_ptr().cast::<i8>();
-        for line in base.addr() / LINE..=(base.addr() + last) / LINE {
-            #[expect(unsafe_code, reason = "a prefetch reads nothing and cannot fault, whatever the address")]
-            // SAFETY: `_mm_prefetch` needs only SSE, which every x86_64 processor has, and it never
-            // dereferences its address.
-            unsafe {
-                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-                    base.with_addr(line * LINE),
-                );
-            }
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = data;
-}
-
 /// A read-only view of one node's points and their implicit box hierarchy.
 #[derive(Clone, Copy, Debug)]
 pub struct BoxTree<'a, T> {
@@ -310,16 +286,6 @@ impl<'a, T: HasPosition> BoxTree<'a, T> {
         let (l, r) = (2 * i + 1, 2 * i + 2);
         let dl = self.boxes[l].distance_squared(q);
         let dr = self.boxes[r].distance_squared(q);
-        // Memory latency bounds the search (a cut of millions of splats is far larger than the
-        // caches): ask now for what the nearer child's search reads two steps down — its four
-        // grandchildren's boxes, or the points of its two leaves — so that the misses overlap.
-        let (near, near_lo, near_hi) = if dl <= dr { (l, lo, mid) } else { (r, mid, hi) };
-        // (A hint must never fail: boxes that are not there are not asked for.)
-        if depth_left >= 3 && max_depth >= 3 {
-            prefetch(self.boxes.get(4 * near + 3..4 * near + 7).unwrap_or_default());
-        } else if depth_left == 2 && max_depth >= 2 {
-            prefetch(&self.items[near_lo..near_hi]);
-        }
         if dl <= dr {
             self.knn_rec(q, l, dl, lo, mid, depth_left - 1, max_depth - 1, best, tag);
             self.knn_rec(q, r, dr, mid, hi, depth_left - 1, max_depth - 1, best, tag);
