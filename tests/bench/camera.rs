@@ -26,15 +26,8 @@ fn main() -> anyhow::Result<()> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let out_dir = root.join("target/bench");
     std::fs::create_dir_all(&out_dir)?;
-    let scan = kiosk_testkit::synthetic::dragon_scan();
     let dir = tempfile::tempdir()?;
-    let scan_store = dir.path().join("dragon.kstore");
-    kiosk_content::import::import(
-        &scan,
-        &scan_store,
-        &Default::default(),
-        &mut kiosk_content::import::quiet,
-    )?;
+    let scan_store = kiosk_testkit::synthetic::dragon_store(dir.path())?;
     let mut models: Vec<(String, MappedStore)> =
         vec![("dragon (437 k)".into(), kiosk_content::open_store(&scan_store)?)];
     for n in [50_000_000u64, 10_000_000] {

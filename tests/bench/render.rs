@@ -61,14 +61,7 @@ fn main() -> anyhow::Result<()> {
         return Ok(());
     }
     let dir = tempfile::tempdir()?;
-    let scan = kiosk_testkit::synthetic::dragon_scan();
-    let scan_store = dir.path().join("dragon.kstore");
-    kiosk_content::import::import(
-        &scan,
-        &scan_store,
-        &Default::default(),
-        &mut kiosk_content::import::quiet,
-    )?;
+    let scan_store = kiosk_testkit::synthetic::dragon_store(dir.path())?;
     let tradeoff_only = std::env::args().any(|a| a == "--tradeoff-only");
     let mut models = vec![("dragon (437 k)".to_string(), kiosk_content::open_store(&scan_store)?)];
     let big = out_dir.join("synthetic-50000000.kstore");

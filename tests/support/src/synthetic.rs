@@ -89,3 +89,15 @@ pub fn paper_graph(store: &MappedStore, n: usize, seed: u64) -> InfoGraph {
 pub fn dragon_scan() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/scans/stanford-dragon/dragon_vrip.ply.gz")
 }
+
+/// The dragon imported into `dir/dragon.kstore` as a curator would, quietly; returns that path.
+pub fn dragon_store(dir: &std::path::Path) -> anyhow::Result<std::path::PathBuf> {
+    let store = dir.join("dragon.kstore");
+    kiosk_content::import::import(
+        &dragon_scan(),
+        &store,
+        &Default::default(),
+        &mut kiosk_content::import::quiet,
+    )?;
+    Ok(store)
+}
