@@ -266,7 +266,6 @@ fn main() -> anyhow::Result<()> {
         }))
         .with_writer(std::io::stderr)
         .init();
-    terminal::clean_up_imports_on_signals();
     let Some(command) = cli.command else { return run_kiosk(cli.run) };
     match command {
         Command::Import {
@@ -279,6 +278,7 @@ fn main() -> anyhow::Result<()> {
             vertices_only,
             quiet,
         } => {
+            terminal::clean_up_imports_on_signals();
             let mut opts = ImportOptions::default();
             opts.read.texel_density = texel_density;
             opts.read.fill_plain_meshes = !vertices_only;

@@ -58,8 +58,9 @@ impl Drop for ImportBar {
     }
 }
 
-/// On Ctrl+C or SIGTERM: removes the work directories of the running imports (the kiosk imports
-/// its exhibits' scans too), then exits with status 130.
+/// For `kiosk import`: on Ctrl+C or SIGTERM, removes the import's work directory, then exits
+/// with status 130. (The kiosk keeps the default signal handling; a directory left by an import
+/// it was running is removed by the next import to that store.)
 pub fn clean_up_imports_on_signals() {
     let installed = ctrlc::set_handler(|| {
         kiosk_content::import::remove_work_dirs();

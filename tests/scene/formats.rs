@@ -583,8 +583,28 @@ fn a_texture_named_by_the_exporters_absolute_path_is_found_beside_the_library() 
     );
     assert_eq!(got.len(), want.len());
     assert!(got.iter().zip(&want).all(|(a, b)| a.color == b.color), "the texture's colours");
+    // Both are the scan's inputs: the named file appearing later imports it again.
+    let named = report.inputs.iter().any(|p| p.to_string_lossy().ends_with("Exports/Cesium Logo Flat.png"));
+    assert!(named && report.inputs.contains(&dir.path().join("Cesium Logo Flat.png")), "{:?}", report.inputs);
     // Not there either: the error names the path the library gave.
     std::fs::remove_file(dir.path().join("Cesium Logo Flat.png")).expect("remove");
     let e = read_all(&dir.path().join("box textured.obj"), &ReadOptions::default()).expect_err("no texture");
     assert!(e.to_string().contains("Exports/Cesium Logo Flat.png"), "{e}");
+}
+
+#[test]
+fn a_gltf_with_an_unused_image_without_a_source_still_imports() {
+    // The gltf crate panics when asked for such an image's source; nothing uses it here.
+    let dir = tempfile::tempdir().expect("temp dir");
+    for f in ["BoxTextured0.bin", "Cesium Logo Flat.png"] {
+        std::fs::copy(data("box-textured").join(f), dir.path().join(f)).expect("copy");
+    }
+    let text = std::fs::read_to_string(data("box-textured/BoxTextured.gltf")).expect("gltf");
+    let mut json: serde_json::Value = serde_json::from_str(&text).expect("json");
+    json["images"].as_array_mut().expect("images").push(serde_json::json!({ "name": "unused, no source" }));
+    let path = dir.path().join("box.gltf");
+    std::fs::write(&path, serde_json::to_string(&json).expect("json")).expect("write");
+    let (points, report) = read_all(&path, &ReadOptions::default()).expect("imports");
+    assert!(!points.is_empty());
+    assert_eq!(report.inputs.len(), 2, "{:?}", report.inputs);
 }

@@ -54,6 +54,9 @@ pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
     if file.extension().is_some_and(|e| e.eq_ignore_ascii_case("kstore")) {
         return crate::open_store(&file);
     }
+    // Whatever the working directory, so that the files it names are noted by the same paths by
+    // every program sharing the cache (the kiosk, `kiosk check`, the authoring tool).
+    let file = file.canonicalize().unwrap_or(file);
     let options = ImportOptions::default();
     let name = cache_name(&file, &options, kiosk_import::BUILDER_REVISION)?;
     std::fs::create_dir_all(cache).with_context(|| format!("cannot create the cache {}", cache.display()))?;
@@ -70,14 +73,15 @@ pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
             match cached() {
                 Some(s) => s,
                 None => {
+                    let started = std::time::SystemTime::now();
                     let report = import_locked(&file, &lock, &options, &mut crate::import::quiet)?;
-                    Inputs::note(&store, &report.inputs);
+                    Inputs::note(&store, &report.inputs, started);
                     crate::open_store(&store)?
                 }
             }
         }
     };
-    let source = file.canonicalize().unwrap_or(file);
+    let source = file;
     if let Err(e) = std::fs::write(store.with_extension(SOURCE), source.to_string_lossy().as_bytes()) {
         tracing::warn!("cannot note the scan of {} in the cache: {e}", store.display());
     }
@@ -106,11 +110,30 @@ impl Inputs {
         Self(paths.iter().map(|p| (p.clone(), stamp(p))).collect())
     }
 
-    /// Writes the note of the store `store` just imported.
-    fn note(store: &Path, paths: &[PathBuf]) {
-        let text = serde_json::to_string(&Self::of(paths)).unwrap_or_default();
-        if let Err(e) = std::fs::write(store.with_extension(Self::ENDING), text) {
-            tracing::warn!("cannot note the inputs of {} in the cache: {e}", store.display());
+    /// Writes the note of the store `store`, imported from `started` on. A file changed since
+    /// then may have been read before or after its change: no note, so the next start imports
+    /// again.
+    fn note(store: &Path, paths: &[PathBuf], started: std::time::SystemTime) {
+        let noted = Self::of(paths);
+        let since = started.duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos());
+        let path = store.with_extension(Self::ENDING);
+        let _ = std::fs::remove_file(&path);
+        if let Some((p, _)) = noted.0.iter().find(|(_, s)| s.is_some_and(|(_, t)| t >= since)) {
+            tracing::info!(
+                "cache: {} changed during the import of {}; it is imported again next time",
+                p.display(),
+                store.display()
+            );
+            return;
+        }
+        let written = serde_json::to_string(&noted)
+            .map_err(std::io::Error::other)
+            .and_then(|t| std::fs::write(&path, t));
+        if let Err(e) = written {
+            tracing::warn!(
+                "cannot note the inputs of {} in the cache ({e}): it is imported again next time",
+                store.display()
+            );
         }
     }
 

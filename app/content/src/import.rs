@@ -5,7 +5,7 @@
 //! import to the same output (another `kiosk import`, or two kiosks filling the same cache) waits
 //! for the first and never shares its files. The directory is renamed into place and removed when
 //! the store is done and removed on an error; a program that ends on a signal removes the running
-//! imports' directories with [`remove_work_dirs`] (the `kiosk` command does, on Ctrl+C and SIGTERM);
+//! imports' directories with [`remove_work_dirs`] (`kiosk import` does, on Ctrl+C and SIGTERM);
 //! one left by a killed process is removed by the next import to that output, which holds the lock.
 
 use anyhow::Context;

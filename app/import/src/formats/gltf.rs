@@ -344,15 +344,11 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
         colors.resize(out.positions.len(), [1.0; 4]);
         out.colors = colors;
     }
-    // The files beside it that it names (buffers and images; embedded ones are in the scan).
-    let uris = doc.buffers().filter_map(|b| match b.source() {
-        gltf::buffer::Source::Uri(uri) => Some(uri),
-        gltf::buffer::Source::Bin => None,
-    });
-    let uris = uris.chain(doc.images().filter_map(|i| match i.source() {
-        gltf::image::Source::Uri { uri, .. } => Some(uri),
-        gltf::image::Source::View { .. } => None,
-    }));
+    // The files beside it that it names (buffers and images; embedded ones are in the scan). Read
+    // from the JSON: the crate's `Image::source` panics on an image without a source, which a
+    // file may hold unused.
+    let uris = json.buffers.iter().filter_map(|b| b.uri.as_deref());
+    let uris = uris.chain(json.images.iter().filter_map(|i| i.uri.as_deref()));
     report.inputs.extend(uris.filter(|u| !u.starts_with("data:")).map(|u| dir.join(percent_decode(u))));
     Ok((out, report))
 }

@@ -23,17 +23,17 @@ use std::io::BufRead;
 const BLOCK: usize = 1 << 20;
 /// A longer line is an error (binary data in a text file), not a reason to read the whole file.
 pub(crate) const MAX_LINE: usize = 64 << 20;
-/// Lines parsed by one task of the pool.
+/// Lines parsed into one output.
 pub(crate) const PIECE: usize = 8192;
 
 /// How a format parses a block of whole lines: a cheap sequential scan that says where each
-/// line belongs (on the reading thread, in order), then the parse proper (on the pool).
-pub(crate) trait Format: Sync {
+/// line belongs, then the parse proper, both on the reading thread.
+pub(crate) trait Format {
     /// Where reading stands between blocks (lines before, the row the next line holds…).
-    type At: Copy + Send;
+    type At: Copy;
     /// What a block parses into; reused from block to block (fresh pages cost more than the
     /// parse).
-    type Out: Default + Send;
+    type Out: Default;
 
     /// Notes in `out` (cleared first) which lines of `block` hold what, reading on from `at`;
     /// returns where reading stands after the block.
@@ -499,53 +499,6 @@ mod tests {
         let nbsp: Vec<&[u8]> = Tokens::new("1\u{a0}2\u{3000}3".as_bytes()).collect();
         assert_eq!(nbsp, [b"1", b"2", b"3"]);
         assert!(is_blank("\u{a0} \t".as_bytes()) && !is_blank(b" x") && !is_blank(b"\xff"));
-    }
-
-    /// Counts the lines of each block, on the pool.
-    struct CountLines;
-
-    impl Format for CountLines {
-        type At = usize;
-        type Out = usize;
-
-        fn scan(&self, block: &[u8], at: usize, out: &mut usize) -> usize {
-            *out = 0;
-            at + lines(block).count()
-        }
-
-        fn parse(&self, block: &[u8], out: &mut usize) {
-            use rayon::prelude::*;
-            let ends: Vec<(usize, usize)> = lines(block).collect();
-            *out = ends.par_chunks(PIECE).map(<[_]>::len).sum();
-        }
-    }
-
-    #[test]
-    fn readers_on_every_worker_of_the_pool_do_not_starve_it() {
-        // Each worker reads a file of several blocks: were the pieces sent to the pool while
-        // every worker waits for them, this would never end.
-        let text = "a line of text\n".repeat(300_000);
-        let (tx, rx) = std::sync::mpsc::channel();
-        std::thread::spawn(move || {
-            let counts = rayon::broadcast(|_| {
-                let mut visited = 0;
-                let at = read(
-                    &mut std::io::BufReader::new(text.as_bytes()),
-                    &CountLines,
-                    0,
-                    |_, n: &mut usize| {
-                        visited += *n;
-                        Ok::<_, ()>(())
-                    },
-                    |_, _| Err(()),
-                );
-                (at, visited)
-            });
-            let _ = tx.send(counts);
-        });
-        let counts =
-            rx.recv_timeout(std::time::Duration::from_secs(120)).expect("readers on the pool finish");
-        assert!(counts.iter().all(|c| *c == (Ok(300_000), 300_000)), "{counts:?}");
     }
 
     #[test]

@@ -411,8 +411,8 @@ pub mod mtl {
                 "map_Kd" => {
                     let Some((name, m)) = out.last_mut() else { return Err(bad("map_Kd before any newmtl")) };
                     let map = map_options(rest).map_err(|e| bad(&e))?;
-                    let (tex_path, moved) = crate::formats::texture::image_path(dir, &map.file);
-                    warnings.extend(moved);
+                    let (tex_path, looked) = crate::formats::texture::image_path(dir, &map.file, warnings);
+                    textures.looked_at(looked);
                     let wrap = if map.clamp { [Wrap::ClampToEdge; 2] } else { [Wrap::Repeat; 2] };
                     let texture = textures.get(&tex_path, wrap).map_err(|e| TextureError {
                         source_name: format!(

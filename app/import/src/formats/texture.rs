@@ -151,6 +151,8 @@ impl Texture {
 #[derive(Default)]
 pub(crate) struct TextureCache {
     loaded: Vec<(PathBuf, [Wrap; 2], std::sync::Arc<Texture>)>,
+    /// Paths looked at besides those loaded (see [`image_path`]).
+    looked: Vec<PathBuf>,
 }
 
 impl TextureCache {
@@ -172,10 +174,15 @@ impl TextureCache {
         Ok(texture)
     }
 
-    /// The files loaded, each once.
+    /// Notes paths looked at for an image, besides the one loaded.
+    pub(crate) fn looked_at(&mut self, paths: Vec<PathBuf>) {
+        self.looked.extend(paths);
+    }
+
+    /// The files loaded or looked at, each once.
     pub(crate) fn paths(&self) -> Vec<PathBuf> {
         let mut paths: Vec<PathBuf> = Vec::new();
-        for (p, ..) in &self.loaded {
+        for p in self.loaded.iter().map(|(p, ..)| p).chain(&self.looked) {
             if !paths.contains(p) {
                 paths.push(p.clone());
             }
@@ -188,18 +195,18 @@ impl TextureCache {
 /// directory; `\\` read as `/`). Exporters often write the absolute path the image had on their
 /// machine (`C:\\Users\\…\\atlas.jpg`): when the named file is not there but one of its name
 /// is in `dir`, that one is taken, with a warning saying so.
-pub(crate) fn image_path(dir: &Path, named: &str) -> (PathBuf, Option<String>) {
+///
+/// Returns the path to read, and the paths looked at (the named one, and the one read if it is
+/// another: both are the scan's inputs, so that the named file appearing later imports it again).
+pub(crate) fn image_path(dir: &Path, named: &str, warnings: &mut Vec<String>) -> (PathBuf, Vec<PathBuf>) {
     let path = dir.join(named.replace('\\', "/"));
-    if path.is_file() {
-        return (path, None);
-    }
     let base = named.rsplit(['/', '\\']).next().unwrap_or(named);
     let beside = dir.join(base);
-    if base != named && beside.is_file() {
-        let warning = format!("image '{named}' not found; using {}, of that name", beside.display());
-        return (beside, Some(warning));
+    if !path.is_file() && base != named && beside.is_file() {
+        warnings.push(format!("image '{named}' not found; using {}, of that name", beside.display()));
+        return (beside.clone(), vec![path, beside]);
     }
-    (path, None)
+    (path.clone(), vec![path])
 }
 
 /// sRGB byte → linear value.

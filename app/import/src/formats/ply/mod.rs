@@ -98,7 +98,8 @@ pub fn read_ply_in<E>(
     });
     // A textured mesh keeps its faces whatever its size (its colour is on them, as for OBJ and
     // glTF); a plain one beyond the limit is read as a cloud.
-    let textured = !header.texture_files.is_empty() && (vertex_uv.is_some() || face_uv.is_some());
+    let textured =
+        dir.is_some() && !header.texture_files.is_empty() && (vertex_uv.is_some() || face_uv.is_some());
     let use_faces = face.is_some() && (v.count <= opts.face_vertex_limit || textured);
     // A face's texture among the files named, when there are several.
     let face_texnumber = face.filter(|_| header.texture_files.len() > 1).and_then(|(fi, _)| {
@@ -113,10 +114,12 @@ pub fn read_ply_in<E>(
     let texture = match (header.texture_files.first(), vertex_uv.is_some() || face_uv.is_some()) {
         (Some(name), true) if use_faces => match dir {
             Some(dir) => {
-                let (paths, moved): (Vec<_>, Vec<_>) =
-                    named.iter().map(|n| super::texture::image_path(dir, n)).unzip();
-                report.warnings.extend(moved.into_iter().flatten());
-                report.inputs.extend(paths.iter().cloned());
+                let mut paths = Vec::new();
+                for n in named {
+                    let (path, looked) = super::texture::image_path(dir, n, &mut report.warnings);
+                    report.inputs.extend(looked);
+                    paths.push(path);
+                }
                 Some(paths.iter().map(|p| Texture::load(p).map(Arc::new)).collect::<Result<Vec<_>, _>>()?)
             }
             None => {
@@ -278,7 +281,7 @@ fn sample_textured<E>(
     Ok(report)
 }
 
-/// How [`read_ply`] converts the rows of a PLY body (on the pool, [`parse::Convert`]): vertices
+/// How [`read_ply`] converts the rows of a PLY body ([`parse::Convert`]): vertices
 /// into samples, faces into triangles (where they are used).
 pub(crate) struct PlyRows {
     /// The vertex element, and the face element and its index list.

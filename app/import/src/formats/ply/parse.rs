@@ -626,7 +626,7 @@ fn read_fixed_rows<C: Convert>(
     let mut row = Row::default();
     row.size_for(el);
     let mut batches = Batches { r, el, ei, conv, size, big, batch, buf: Vec::new(), row, done: 0 };
-    // Takes the rows of a batch; hands its buffer back.
+    // Takes the rows of a batch; gives its buffer back for the next.
     let mut take_batch = |mut c: Converted<C::Out>| -> Result<C::Out, PlyError> {
         take(&mut c.out)?;
         if let Some(e) = c.error {
