@@ -37,16 +37,19 @@ use glam::{DVec3, Mat4, Vec3};
 use kiosk_core::camera::Camera;
 use kiosk_core::scene::{NodeId, Splat, Store};
 use std::collections::{HashMap, HashSet};
-use std::sync::{Arc, Mutex};
 use wgpu::util::DeviceExt;
 
 pub use wgpu;
 
 mod blit;
 mod fullscreen;
+mod gpu;
 #[cfg(feature = "reference")]
 pub mod reference;
+mod settings;
 pub use blit::{BLIT_WGSL, Blit};
+pub use gpu::{Gpu, RenderError, read_back};
+pub use settings::{DEFAULT_BLEND_EPSILON, FrameStats, RenderSettings, SplatMode};
 
 /// The splat shader (validated by a test with naga).
 pub const SPLAT_WGSL: &str = include_str!("../../../shaders/splat.wgsl");
@@ -56,242 +59,6 @@ pub const EDL_WGSL: &str = include_str!("../../../shaders/edl.wgsl");
 /// Colour format of offscreen images.
 pub const OFFSCREEN_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-
-/// Why rendering failed.
-#[derive(Debug, thiserror::Error)]
-pub enum RenderError {
-    /// No GPU adapter (install lavapipe: `mesa-vulkan-drivers libvulkan1`).
-    #[error(
-        "no GPU adapter found ({0}); on a machine without GPU install lavapipe (mesa-vulkan-drivers, libvulkan1; in a checkout, .ci/setup installs them)"
-    )]
-    NoAdapter(String),
-    /// The device could not be created.
-    #[error("cannot create the GPU device: {0}")]
-    Device(String),
-    /// wgpu reported an error.
-    #[error("GPU error: {0}")]
-    Gpu(String),
-    /// Reading back an image failed.
-    #[error("cannot read the image back: {0}")]
-    Readback(String),
-    /// An image size the device cannot draw or read back.
-    #[error("{0}")]
-    Size(String),
-}
-
-/// A GPU device and queue, with wgpu's errors collected.
-pub struct Gpu {
-    /// The device.
-    pub device: wgpu::Device,
-    /// Its queue.
-    pub queue: wgpu::Queue,
-    /// What the adapter is (e.g. "llvmpipe … Vulkan Cpu").
-    pub adapter: wgpu::AdapterInfo,
-    errors: Arc<Mutex<Vec<String>>>,
-}
-
-impl Gpu {
-    /// A headless device (Vulkan: a real GPU, or lavapipe on machines without one), with
-    /// validation on.
-    pub fn headless() -> Result<Self, RenderError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
-            backends: wgpu::Backends::VULKAN,
-            flags: wgpu::InstanceFlags::VALIDATION,
-            ..wgpu::InstanceDescriptor::new_without_display_handle()
-        });
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: false,
-            compatible_surface: None,
-            apply_limit_buckets: false,
-        }))
-        .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
-        Self::from_adapter(&adapter)
-    }
-
-    /// A device on an adapter chosen by the caller (e.g. compatible with a window surface).
-    pub fn from_adapter(adapter: &wgpu::Adapter) -> Result<Self, RenderError> {
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("isokiosk"),
-            required_features: wgpu::Features::empty(),
-            required_limits: wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits()),
-            experimental_features: wgpu::ExperimentalFeatures::disabled(),
-            memory_hints: wgpu::MemoryHints::Performance,
-            trace: wgpu::Trace::Off,
-        }))
-        .map_err(|e| RenderError::Device(e.to_string()))?;
-        let errors = Arc::new(Mutex::new(Vec::new()));
-        let sink = errors.clone();
-        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
-            if let Ok(mut v) = sink.lock() {
-                v.push(e.to_string());
-            }
-        }));
-        Ok(Self { device, queue, adapter: adapter.get_info(), errors })
-    }
-
-    /// Whether this device can draw an image of `(w, h)` pixels and read it back: each side at
-    /// most its largest texture, the padded pixels within its largest buffer.
-    pub fn check_size(&self, (w, h): (u32, u32)) -> Result<(), RenderError> {
-        let limits = self.device.limits();
-        let side = limits.max_texture_dimension_2d;
-        if w == 0 || h == 0 || w > side || h > side {
-            return Err(RenderError::Size(format!(
-                "{w}×{h} pixels: this GPU draws 1 to {side} pixels a side"
-            )));
-        }
-        let row = u64::from(
-            (w * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT,
-        );
-        let bytes = row * u64::from(h);
-        if bytes > limits.max_buffer_size {
-            return Err(RenderError::Size(format!(
-                "{w}×{h} pixels: reading the image back takes {} MB, this GPU's largest buffer is {} MB",
-                bytes >> 20,
-                limits.max_buffer_size >> 20
-            )));
-        }
-        Ok(())
-    }
-
-    /// Waits until the GPU has finished all submitted work (for timing and tests).
-    pub fn wait(&self) -> Result<(), RenderError> {
-        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| RenderError::Gpu(e.to_string()))?;
-        Ok(())
-    }
-
-    /// The errors wgpu reported since the last call, as one error.
-    pub fn check(&self) -> Result<(), RenderError> {
-        let mut v = self.errors.lock().map_err(|_| RenderError::Gpu("error log poisoned".into()))?;
-        if v.is_empty() { Ok(()) } else { Err(RenderError::Gpu(std::mem::take(&mut *v).join("; "))) }
-    }
-}
-
-/// How splats are drawn.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum SplatMode {
-    /// Deferred blended surface splatting: overlapping splats of one surface blend their colour
-    /// and normal with a smooth kernel and every pixel is shaded with its blended normal (the
-    /// smooth image; the default).
-    #[default]
-    Blended,
-    /// Opaque oriented discs, each shaded with its one normal (faster; disc edges show close up).
-    Discs,
-    /// Screen-aligned round points (the fastest fallback).
-    Points,
-}
-
-impl SplatMode {
-    /// Every mode, by its name.
-    pub const ALL: [(&'static str, SplatMode); 3] =
-        [("blended", SplatMode::Blended), ("discs", SplatMode::Discs), ("points", SplatMode::Points)];
-
-    /// Its name in `--splats` and `kiosk.toml`.
-    pub fn name(self) -> &'static str {
-        Self::ALL.iter().find(|(_, m)| *m == self).map_or("blended", |(n, _)| n)
-    }
-}
-
-impl std::fmt::Display for SplatMode {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for SplatMode {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Self::ALL.iter().find(|(n, _)| *n == s).map(|(_, m)| *m).ok_or_else(|| {
-            let names: Vec<&str> = Self::ALL.iter().map(|(n, _)| *n).collect();
-            format!("unknown splat mode '{s}' (one of: {})", names.join(", "))
-        })
-    }
-}
-
-/// Rendering settings.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RenderSettings {
-    /// Blended splats, opaque discs or round points.
-    pub mode: SplatMode,
-    /// Multiplies every splat radius.
-    pub radius_scale: f32,
-    /// Direction toward the user light (model axes).
-    pub light_dir: Vec3,
-    /// Weight of the user light against the headlight.
-    pub light_mix: f32,
-    /// Ambient term.
-    pub ambient: f32,
-    /// Strength of the Blinn–Phong highlight (0: matte).
-    pub specular: f32,
-    /// Blinn–Phong exponent of the highlight.
-    pub shininess: f32,
-    /// Blended mode: how far behind the front surface, in splat radii along the view ray, a
-    /// splat still blends into a pixel (see [`DEFAULT_BLEND_EPSILON`]).
-    pub blend_epsilon: f32,
-    /// Blended mode: the kernel's Gaussian exponent at the disc's edge (larger: sharper).
-    pub kernel_sharpness: f32,
-    /// Smallest splat radius in pixels: a far splat is enlarged to it so that none falls between
-    /// pixel centres.
-    pub min_pixel_radius: f32,
-    /// Eye-dome lighting strength (0: off).
-    pub edl_strength: f32,
-    /// Eye-dome lighting neighbour distance in pixels.
-    pub edl_radius: f32,
-    /// Background colour (linear RGBA).
-    pub background: [f64; 4],
-    /// GPU memory the node cache may use.
-    pub gpu_budget_bytes: u64,
-    /// Largest upload per frame (the rest waits; cached ancestors stand in).
-    pub upload_budget_bytes: u64,
-}
-
-/// The blend epsilon: 1 splat radius. Neighbouring splats of one surface, each a disc tangent
-/// to it, differ in depth at a pixel by at most about a radius where the surface curves or is
-/// seen obliquely, so they blend; a surface behind another is in front of it by more than the
-/// sampling's radius wherever the model is sampled finely enough to show it, so it is rejected.
-pub const DEFAULT_BLEND_EPSILON: f32 = 2.0;
-
-impl Default for RenderSettings {
-    fn default() -> Self {
-        Self {
-            mode: SplatMode::Blended,
-            radius_scale: 1.0,
-            light_dir: Vec3::new(0.4, 0.8, 0.5),
-            light_mix: 0.35,
-            ambient: 0.12,
-            specular: 0.12,
-            shininess: 24.0,
-            blend_epsilon: DEFAULT_BLEND_EPSILON,
-            kernel_sharpness: 2.5,
-            min_pixel_radius: 0.75,
-            edl_strength: 0.0,
-            edl_radius: 1.5,
-            background: [0.02, 0.02, 0.025, 1.0],
-            gpu_budget_bytes: 512 << 20,
-            upload_budget_bytes: 48 << 20,
-        }
-    }
-}
-
-/// What a frame did.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct FrameStats {
-    /// Nodes drawn.
-    pub nodes: usize,
-    /// Splats drawn.
-    pub splats: u64,
-    /// Nodes uploaded this frame.
-    pub uploads: usize,
-    /// Bytes uploaded this frame.
-    pub uploaded_bytes: u64,
-    /// Visible nodes drawn as a cached ancestor: not uploaded yet (over the upload budget), or
-    /// corrupt (every frame they are visible).
-    pub substituted: usize,
-    /// Bytes held by the cache after the frame.
-    pub cache_bytes: u64,
-    /// Nodes found corrupt this frame (see [`Renderer::corrupt_nodes`]).
-    pub corrupt: usize,
-}
 
 /// Needs to be kept in sync with `Frame` in shaders/splat.wgsl.
 #[repr(C)]
@@ -944,62 +711,6 @@ impl Renderer {
 
 /// Sizes of depth/EDL targets a renderer keeps at once.
 const MAX_TARGET_SIZES: usize = 3;
-
-/// Copies an RGBA8 or BGRA8 texture (sRGB or not) into an RGBA image.
-pub fn read_back(
-    gpu: &Gpu,
-    texture: &wgpu::Texture,
-    (w, h): (u32, u32),
-) -> Result<image::RgbaImage, RenderError> {
-    let unpadded = w * 4;
-    let padded = unpadded.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-    let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback"),
-        size: u64::from(padded) * u64::from(h),
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let mut enc =
-        gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
-    enc.copy_texture_to_buffer(
-        texture.as_image_copy(),
-        wgpu::TexelCopyBufferInfo {
-            buffer: &buffer,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(padded),
-                rows_per_image: Some(h),
-            },
-        },
-        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-    );
-    let index = gpu.queue.submit([enc.finish()]);
-    let (tx, rx) = std::sync::mpsc::channel();
-    buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
-        let _ = tx.send(r);
-    });
-    gpu.device
-        .poll(wgpu::PollType::Wait { submission_index: Some(index), timeout: None })
-        .map_err(|e| RenderError::Readback(e.to_string()))?;
-    rx.recv()
-        .map_err(|e| RenderError::Readback(e.to_string()))?
-        .map_err(|e| RenderError::Readback(e.to_string()))?;
-    let mut rgba = Vec::with_capacity((unpadded * h) as usize);
-    {
-        let view = buffer.slice(..).get_mapped_range().map_err(|e| RenderError::Readback(e.to_string()))?;
-        for row in view.chunks_exact(padded as usize) {
-            rgba.extend_from_slice(&row[..unpadded as usize]);
-        }
-    }
-    buffer.unmap();
-    gpu.check()?;
-    if matches!(texture.format(), wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb) {
-        for px in rgba.chunks_exact_mut(4) {
-            px.swap(0, 2);
-        }
-    }
-    image::RgbaImage::from_raw(w, h, rgba).ok_or_else(|| RenderError::Readback("size mismatch".into()))
-}
 
 /// What the drawn nodes can reach: the union of their boxes grown by their largest splat, and
 /// its nearest point's distance to `eye` (store-local coordinates); one pass per frame serves
