@@ -50,6 +50,27 @@ pub enum Tilt {
 /// Weight presets of dependencies.
 pub const PRESETS: [(&str, f64); 3] = [("Mandatory", 1.0), ("Strong", 0.8), ("Weak", 0.2)];
 
+/// The side panel's editing buffers: what the curator types or chooses before applying it.
+#[derive(Clone, Debug, Default)]
+pub struct EditBuffers {
+    /// Id of the node to add.
+    pub new_id: String,
+    /// Title being edited.
+    pub title: String,
+    /// Text being edited.
+    pub text: String,
+    /// Overlay file to attach (PNG or SVG).
+    pub overlay_file: String,
+    /// Narration file to attach.
+    pub narration_file: String,
+    /// Recorded session to replay.
+    pub session_file: String,
+    /// Predecessor chosen for a new dependency.
+    pub dep_from: Option<String>,
+    /// Custom weight of a new dependency.
+    pub custom_weight: f64,
+}
+
 /// The authoring tool's state.
 pub struct AuthorApp {
     /// The exhibit being edited.
@@ -67,22 +88,8 @@ pub struct AuthorApp {
     pub selected: Option<String>,
     /// The language being edited.
     pub lang: String,
-    /// Editing buffers: new node id, title, text, overlay file, narration file, session file.
-    pub new_id: String,
-    /// Title being edited.
-    pub title: String,
-    /// Text being edited.
-    pub text: String,
-    /// Overlay file to attach (PNG or SVG).
-    pub overlay_file: String,
-    /// Narration file to attach.
-    pub narration_file: String,
-    /// Recorded session to replay.
-    pub session_file: String,
-    /// Predecessor chosen for a new dependency.
-    pub dep_from: Option<String>,
-    /// Custom weight.
-    pub custom_weight: f64,
+    /// What the curator is typing or choosing in the side panel.
+    pub edit: EditBuffers,
     /// Current tool.
     pub tool: Tool,
     mask: Option<image::GrayImage>,
@@ -169,14 +176,7 @@ impl AuthorApp {
             light_pad: None,
             selected: None,
             lang,
-            new_id: String::new(),
-            title: String::new(),
-            text: String::new(),
-            overlay_file: String::new(),
-            narration_file: String::new(),
-            session_file: String::new(),
-            dep_from: None,
-            custom_weight: 0.5,
+            edit: EditBuffers { custom_weight: 0.5, ..EditBuffers::default() },
             tool: Tool::Navigate,
             mask: None,
             mask_tex: None,
@@ -228,8 +228,8 @@ impl AuthorApp {
     fn load_texts(&mut self) {
         let g = &self.project.graph;
         let node = self.selected.as_deref().and_then(|id| g.index_of(id)).map(|i| &g.nodes[i]);
-        self.title = node.and_then(|n| n.title.0.get(&self.lang).cloned()).unwrap_or_default();
-        self.text = node.and_then(|n| n.text.0.get(&self.lang).cloned()).unwrap_or_default();
+        self.edit.title = node.and_then(|n| n.title.0.get(&self.lang).cloned()).unwrap_or_default();
+        self.edit.text = node.and_then(|n| n.text.0.get(&self.lang).cloned()).unwrap_or_default();
     }
 
     /// Turns the model upright: its up direction is saved in `exhibit.toml` and the live view starts
@@ -359,22 +359,22 @@ impl AuthorApp {
 
     /// Captures the live view as a node (with the id typed, or a fresh one) and selects it.
     pub fn capture(&mut self) {
-        let id = (!self.new_id.trim().is_empty()).then(|| self.new_id.trim().to_string());
+        let id = (!self.edit.new_id.trim().is_empty()).then(|| self.edit.new_id.trim().to_string());
         let cam = self.camera();
         let gpu = self.gpu.as_mut().map(|(g, r)| (&*g, r));
         let r = self.project.capture(cam, id.as_deref(), gpu);
         if let Some(id) = self.report("capture", r) {
             self.say(format!("captured the view as '{id}'"));
-            self.new_id.clear();
+            self.edit.new_id.clear();
             self.select(Some(id));
         }
     }
 
-    /// Attaches `self.overlay_file` to the selected node in the current language; an SVG is
+    /// Attaches `self.edit.overlay_file` to the selected node in the current language; an SVG is
     /// rendered at the view's size first.
     pub fn attach_overlay(&mut self) {
         let Some(id) = self.selected.clone() else { return };
-        let source = PathBuf::from(self.overlay_file.trim());
+        let source = PathBuf::from(self.edit.overlay_file.trim());
         let is_svg = source.extension().is_some_and(|e| e.eq_ignore_ascii_case("svg"));
         let r = if is_svg {
             svg_to_png(&source).and_then(|png| {
@@ -394,14 +394,14 @@ impl AuthorApp {
         }
     }
 
-    /// Copies `self.narration_file` into `audio/` and attaches it in the current language.
+    /// Copies `self.edit.narration_file` into `audio/` and attaches it in the current language.
     pub fn attach_narration(&mut self) {
         let Some(id) = self.selected.clone() else { return };
         if let Err(e) = kiosk_core::graph::check_id(&self.lang) {
             self.say(format!("error: language {e}"));
             return;
         }
-        let source = PathBuf::from(self.narration_file.trim());
+        let source = PathBuf::from(self.edit.narration_file.trim());
         let ext = source.extension().and_then(|e| e.to_str()).unwrap_or("wav").to_ascii_lowercase();
         let rel = format!("audio/{id}-{}.{ext}", self.lang);
         let dest = self.project.dir().join(&rel);
@@ -432,16 +432,16 @@ impl AuthorApp {
     /// Applies the edited title and text.
     pub fn apply_texts(&mut self) {
         let Some(id) = self.selected.clone() else { return };
-        let (title, text) = (self.title.clone(), self.text.clone());
+        let (title, text) = (self.edit.title.clone(), self.edit.text.clone());
         let r = self.project.set_text(&id, &self.lang, &title, &text);
         if self.report("texts", r).is_some() {
             self.say(format!("texts of '{id}' ({}) set", self.lang));
         }
     }
 
-    /// Sets the dependency from `self.dep_from` to the selected node.
+    /// Sets the dependency from `self.edit.dep_from` to the selected node.
     pub fn add_dependency(&mut self, weight: f64) {
-        let (Some(from), Some(to)) = (self.dep_from.clone(), self.selected.clone()) else {
+        let (Some(from), Some(to)) = (self.edit.dep_from.clone(), self.selected.clone()) else {
             self.say("pick a predecessor first");
             return;
         };
@@ -536,7 +536,7 @@ impl AuthorApp {
 
     /// Replays the session file against the current graph.
     pub fn replay(&mut self) {
-        let path = PathBuf::from(self.session_file.trim());
+        let path = PathBuf::from(self.edit.session_file.trim());
         let r = std::fs::read_to_string(&path)
             .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))
             .and_then(|t| Ok(kiosk_core::session::Session::parse(&t)?));
@@ -780,7 +780,7 @@ impl AuthorApp {
         ui.heading("Views");
         ui.horizontal(|ui| {
             let l = ui.label("New id");
-            ui.add(egui::TextEdit::singleline(&mut self.new_id).desired_width(100.0)).labelled_by(l.id);
+            ui.add(egui::TextEdit::singleline(&mut self.edit.new_id).desired_width(100.0)).labelled_by(l.id);
         });
         if ui.button("Capture view").clicked() {
             self.capture();
@@ -822,7 +822,8 @@ impl AuthorApp {
         }
         ui.horizontal(|ui| {
             let l = ui.label("Session");
-            ui.add(egui::TextEdit::singleline(&mut self.session_file).desired_width(120.0)).labelled_by(l.id);
+            ui.add(egui::TextEdit::singleline(&mut self.edit.session_file).desired_width(120.0))
+                .labelled_by(l.id);
         });
         if ui.button("Replay session").clicked() {
             self.replay();
@@ -888,11 +889,13 @@ impl AuthorApp {
         ui.strong(format!("Texts ({})", self.lang));
         ui.horizontal(|ui| {
             let l = ui.label("Title");
-            ui.text_edit_singleline(&mut self.title).labelled_by(l.id);
+            ui.text_edit_singleline(&mut self.edit.title).labelled_by(l.id);
         });
         let l = ui.label("Text");
-        ui.add(egui::TextEdit::multiline(&mut self.text).desired_rows(4).hint_text("Text shown and spoken"))
-            .labelled_by(l.id);
+        ui.add(
+            egui::TextEdit::multiline(&mut self.edit.text).desired_rows(4).hint_text("Text shown and spoken"),
+        )
+        .labelled_by(l.id);
         if ui.button("Apply texts").clicked() {
             self.apply_texts();
         }
@@ -900,7 +903,7 @@ impl AuthorApp {
         ui.strong(format!("Overlay ({})", self.lang));
         ui.horizontal(|ui| {
             let l = ui.label("Overlay file");
-            ui.add(egui::TextEdit::singleline(&mut self.overlay_file).hint_text("drawing.png or .svg"))
+            ui.add(egui::TextEdit::singleline(&mut self.edit.overlay_file).hint_text("drawing.png or .svg"))
                 .labelled_by(l.id);
         });
         ui.horizontal(|ui| {
@@ -915,8 +918,11 @@ impl AuthorApp {
         ui.strong(format!("Narration ({})", self.lang));
         ui.horizontal(|ui| {
             let l = ui.label("Narration file");
-            ui.add(egui::TextEdit::singleline(&mut self.narration_file).hint_text("voice.wav / .ogg / .mp3"))
-                .labelled_by(l.id);
+            ui.add(
+                egui::TextEdit::singleline(&mut self.edit.narration_file)
+                    .hint_text("voice.wav / .ogg / .mp3"),
+            )
+            .labelled_by(l.id);
         });
         ui.horizontal(|ui| {
             if ui.button("Attach narration").clicked() {
@@ -966,10 +972,10 @@ impl AuthorApp {
         let others: Vec<String> =
             self.project.graph.nodes.iter().map(|n| n.id.clone()).filter(|n| *n != id).collect();
         egui::ComboBox::from_label("Predecessor")
-            .selected_text(self.dep_from.clone().unwrap_or_else(|| "choose…".into()))
+            .selected_text(self.edit.dep_from.clone().unwrap_or_else(|| "choose…".into()))
             .show_ui(ui, |ui| {
                 for o in others {
-                    ui.selectable_value(&mut self.dep_from, Some(o.clone()), o);
+                    ui.selectable_value(&mut self.edit.dep_from, Some(o.clone()), o);
                 }
             });
         ui.horizontal(|ui| {
@@ -980,9 +986,9 @@ impl AuthorApp {
             }
         });
         ui.horizontal(|ui| {
-            ui.add(egui::Slider::new(&mut self.custom_weight, 0.01..=1.0).text("weight"));
+            ui.add(egui::Slider::new(&mut self.edit.custom_weight, 0.01..=1.0).text("weight"));
             if ui.button("Custom").clicked() {
-                self.add_dependency(self.custom_weight);
+                self.add_dependency(self.edit.custom_weight);
             }
         });
     }
