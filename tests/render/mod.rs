@@ -838,3 +838,81 @@ fn a_corrupted_node_is_never_drawn_its_ancestor_stands_in_and_a_snapshot_says_so
     let typed = e.downcast_ref::<kiosk_content::snapshot::CorruptView>().expect("a CorruptView");
     assert_eq!((typed.node, typed.count), (leaf, 1));
 }
+
+/// A 1024² texture of one-texel dark lines every 32 texels on a flat square (OBJ + MTL + PNG),
+/// imported at `density` samples per texel.
+fn line_texture_store(dir: &Path, density: f32) -> MappedStore {
+    const SIDE: u32 = 1024;
+    image::RgbImage::from_fn(SIDE, SIDE, |x, y| {
+        if x % 32 == 0 || y % 32 == 0 { image::Rgb([20, 20, 60]) } else { image::Rgb([225, 220, 200]) }
+    })
+    .save(dir.join("lines.png"))
+    .expect("png");
+    std::fs::write(dir.join("square.mtl"), "newmtl lines\nKd 1 1 1\nmap_Kd lines.png\n").expect("mtl");
+    let obj = "mtllib square.mtl\nusemtl lines\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
+               vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n";
+    std::fs::write(dir.join("square.obj"), obj).expect("obj");
+    let out = dir.join(format!("square-{density}.kstore"));
+    let mut opts = kiosk_content::import::ImportOptions::default();
+    opts.read.texel_density = density;
+    kiosk_content::import::import(&dir.join("square.obj"), &out, &opts, &mut kiosk_content::import::quiet)
+        .expect("import");
+    kiosk_content::open_store(&out).expect("open")
+}
+
+/// The dark runs of a row of pixels (below halfway between the row's darkest and its median
+/// luma): each run's width and darkest luma.
+fn dark_runs(img: &image::RgbaImage, y: u32) -> Vec<(u32, f64)> {
+    let luma: Vec<f64> = (0..img.width())
+        .map(|x| {
+            let p = img.get_pixel(x, y);
+            0.299 * f64::from(p[0]) + 0.587 * f64::from(p[1]) + 0.114 * f64::from(p[2])
+        })
+        .collect();
+    let mut sorted = luma.clone();
+    sorted.sort_by(f64::total_cmp);
+    let (dark, median) = (sorted[0], sorted[sorted.len() / 2]);
+    let cut = (dark + median) / 2.0;
+    let mut runs = Vec::new();
+    let mut run: Option<(u32, f64)> = None;
+    for &l in &luma {
+        match (&mut run, l < cut) {
+            (Some((w, m)), true) => {
+                *w += 1;
+                *m = m.min(l);
+            }
+            (None, true) => run = Some((1, l)),
+            (Some(_), false) => runs.extend(run.take()),
+            (None, false) => {}
+        }
+    }
+    runs.extend(run);
+    runs
+}
+
+#[test]
+fn a_texture_keeps_its_one_texel_lines_in_the_render() {
+    // Close up, at two pixels a texel: every one-texel line of the texture across the view is a
+    // thin dark line in the image at one sample per texel. At one sample per 2 × 2 texels some
+    // lines are lost between the samples (each sample takes the texture's colour where it lies).
+    let dir = tempfile::tempdir().expect("temp dir");
+    let size = (320u32, 240u32);
+    let texel = 1.0 / 1024.0;
+    let height = f64::from(size.1) / 2.0 * texel / 2.0 / (0.4f64).tan();
+    let at = DVec3::new(0.5 + 7.0 * texel, 0.5 + 5.0 * texel, 0.0);
+    let cam = Camera { eye: at + DVec3::Z * height, target: at, up: DVec3::Y, fov_y: 0.8 };
+    let settings = RenderSettings::default();
+    let lines = |density: f32| {
+        let store = line_texture_store(dir.path(), density);
+        let img = render(&store, &cam, size, &settings);
+        [60, 120, 180].map(|y| dark_runs(&img, y))
+    };
+    // 160 texels across the view: five lines in each of three rows, each two pixels wide (three
+    // where the row meets a line between pixel centres).
+    for runs in lines(1.0) {
+        assert_eq!(runs.len(), 5, "{runs:?}");
+        assert!(runs.iter().all(|&(w, _)| (1..=3).contains(&w)), "one texel is two pixels: {runs:?}");
+    }
+    let coarse = lines(0.25);
+    assert!(coarse.iter().any(|runs| runs.len() < 5), "lines lost at 0.25 samples per texel: {coarse:?}");
+}
