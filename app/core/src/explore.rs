@@ -33,7 +33,7 @@ use crate::camera::{ControllerKind, make_controller, start_camera};
 use crate::gesture::GestureSettings;
 use crate::gesture::{Gestures, MenuEvent, TouchEvent};
 use crate::graph::InfoGraph;
-use crate::light::{ACTIVE_MIX, DEFAULT_MIX, Light, LightEase, LightPad, RESTORE_SECS};
+use crate::light::{Light, Lighting};
 use crate::recommend::{
     Effect, RecEvent, RecState, Recommender, Sense, ViewContext, ViewIndex, radial_candidates, slot_for_angle,
 };
@@ -171,11 +171,7 @@ pub struct Explorer<'a, B: AsRef<[u8]>> {
     center: DVec3,
     max_distance: f64,
     tolerance: f64,
-    light: Light,
-    light_target_mix: f64,
-    light_ease: Option<LightEase>,
-    light_pad: Option<LightPad>,
-    start_light: DVec3,
+    light: Lighting,
     /// Counts over the exploration.
     pub summary: Summary,
     /// When set, proposals are accepted without a visitor (the kiosk's attract loop).
@@ -242,11 +238,7 @@ impl<'a, B: AsRef<[u8]>> Explorer<'a, B> {
             center,
             max_distance,
             tolerance,
-            light: Light { dir: start_light, mix: DEFAULT_MIX },
-            light_target_mix: DEFAULT_MIX,
-            light_ease: None,
-            light_pad: None,
-            start_light,
+            light: Lighting::new(start_light),
             summary: Summary { min_surface_distance: f64::INFINITY, ..Summary::default() },
             autopilot: false,
         }
@@ -276,55 +268,41 @@ impl<'a, B: AsRef<[u8]>> Explorer<'a, B> {
 
     /// The light of the last frame (what the renderer shows).
     pub fn light(&self) -> Light {
-        self.light
+        self.light.light()
     }
 
     /// Where the light is on the steering pad of the current view (centre: from the eye; rim:
     /// grazing), for the controller's light indicator.
     pub fn light_pad(&self) -> glam::DVec2 {
-        crate::light::to_pad(&self.camera, self.light.dir)
+        crate::light::to_pad(&self.camera, self.light.light().dir)
     }
 
     /// Whether a finger steers the light.
     pub fn light_dragging(&self) -> bool {
-        self.light_pad.is_some()
+        self.light.dragging()
     }
 
     /// A finger starts steering the light (from where it is now, as seen from the current view):
     /// any animation of it stops and the user light comes to dominate.
     pub fn light_drag_start(&mut self) {
-        self.light_pad = Some(LightPad::start(&self.camera, self.light.dir));
-        self.light_ease = None;
-        self.light_target_mix = ACTIVE_MIX;
+        self.light.drag_start(&self.camera);
     }
 
     /// The steering finger moved by `(dx, dy)` (controller widths and heights, y down); starts a
     /// drag if none runs.
     pub fn light_drag(&mut self, dx: f64, dy: f64) {
-        if dx == 0.0 && dy == 0.0 && self.light_pad.is_some() {
-            return;
-        }
-        if self.light_pad.is_none() {
-            self.light_drag_start();
-        }
-        let aspect = self.settings.gestures.aspect;
-        if let Some(pad) = self.light_pad.as_mut() {
-            self.light.dir = pad.drag(&self.camera, dx, dy, aspect);
-        }
+        self.light.drag(&self.camera, dx, dy, self.settings.gestures.aspect);
     }
 
     /// The steering finger lifted: the light stays where it is.
     pub fn light_drag_end(&mut self) {
-        self.light_pad = None;
+        self.light.drag_end();
     }
 
     /// The attract loop: the light eases back to the one the exploration started with, the
     /// headlight dominating again (a go-to to a node with a light still turns it).
     pub fn restore_light(&mut self, t: f64) {
-        self.light_pad = None;
-        self.light_target_mix = DEFAULT_MIX;
-        self.light_ease =
-            Some(LightEase { from: self.light.dir, to: self.start_light, start: t, duration: RESTORE_SECS });
+        self.light.restore(t);
     }
 
     /// The current cut.
@@ -519,12 +497,8 @@ impl<'a, B: AsRef<[u8]>> Explorer<'a, B> {
                         self.goto = Some(GoTo { from: self.controller.camera(), to, start: t, duration });
                         // The node's light, if it has one, turns with the camera; else the light
                         // stays. A finger on the light keeps it.
-                        if let Some(light) = g.nodes[node].light
-                            && self.light_pad.is_none()
-                        {
-                            self.light_ease =
-                                Some(LightEase { from: self.light.dir, to: light, start: t, duration });
-                            self.light_target_mix = ACTIVE_MIX;
+                        if let Some(light) = g.nodes[node].light {
+                            self.light.turn_to(light, t, duration);
                         }
                     }
                     Effect::ShowOverlay { node } => {
@@ -549,14 +523,7 @@ impl<'a, B: AsRef<[u8]>> Explorer<'a, B> {
             None => self.controller.camera(),
         };
         self.camera = cam;
-        if let Some(e) = self.light_ease {
-            let (dir, done) = e.at(t);
-            self.light.dir = dir;
-            if done {
-                self.light_ease = None;
-            }
-        }
-        self.light.mix = crate::light::ease_mix(self.light.mix, self.light_target_mix, dt);
+        self.light.step(t, dt);
         if let Some(v) = cam.view_params(store, settings.size_px) {
             self.cut.update(store, &v, &settings.cut);
         }
@@ -604,8 +571,8 @@ impl<'a, B: AsRef<[u8]>> Explorer<'a, B> {
                 candidates: self.menu.iter().flat_map(|m| &m.candidates).filter_map(|&i| id(i)).collect(),
             }),
             cut_nodes: self.cut.nodes().len(),
-            light: self.light.dir.to_array(),
-            light_mix: self.light.mix,
+            light: self.light.light().dir.to_array(),
+            light_mix: self.light.light().mix,
         };
         (frame, effects)
     }

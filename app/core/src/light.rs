@@ -161,6 +161,97 @@ pub fn ease_mix(mix: f64, target: f64, dt: f64) -> f64 {
     if (next - target).abs() <= 1e-6 { target } else { next }
 }
 
+/// The light of one exploration as it changes: where it is now, the mix it eases toward, an
+/// animation of its direction (a go-to's, or the attract loop's way back), a finger steering it,
+/// and the light the exploration started with.
+#[derive(Clone, Copy, Debug)]
+pub struct Lighting {
+    light: Light,
+    target_mix: f64,
+    ease: Option<LightEase>,
+    pad: Option<LightPad>,
+    start: DVec3,
+}
+
+impl Lighting {
+    /// The light of an exploration starting with direction `start`, the headlight dominating.
+    pub fn new(start: DVec3) -> Self {
+        Self {
+            light: Light { dir: start, mix: DEFAULT_MIX },
+            target_mix: DEFAULT_MIX,
+            ease: None,
+            pad: None,
+            start,
+        }
+    }
+
+    /// The light now.
+    pub fn light(&self) -> Light {
+        self.light
+    }
+
+    /// Whether a finger steers the light.
+    pub fn dragging(&self) -> bool {
+        self.pad.is_some()
+    }
+
+    /// A finger starts steering the light from where it is as seen from `cam`: any animation
+    /// stops and the user light comes to dominate.
+    pub fn drag_start(&mut self, cam: &Camera) {
+        self.pad = Some(LightPad::start(cam, self.light.dir));
+        self.ease = None;
+        self.target_mix = ACTIVE_MIX;
+    }
+
+    /// The steering finger moved by `(dx, dy)` (controller widths and heights, y down) on a
+    /// controller of `aspect`; starts a drag if none runs.
+    pub fn drag(&mut self, cam: &Camera, dx: f64, dy: f64, aspect: f64) {
+        if dx == 0.0 && dy == 0.0 && self.pad.is_some() {
+            return;
+        }
+        if self.pad.is_none() {
+            self.drag_start(cam);
+        }
+        if let Some(pad) = self.pad.as_mut() {
+            self.light.dir = pad.drag(cam, dx, dy, aspect);
+        }
+    }
+
+    /// The steering finger lifted: the light stays where it is.
+    pub fn drag_end(&mut self) {
+        self.pad = None;
+    }
+
+    /// Eases back to the start light from `t`, the headlight dominating again.
+    pub fn restore(&mut self, t: f64) {
+        self.pad = None;
+        self.target_mix = DEFAULT_MIX;
+        self.ease =
+            Some(LightEase { from: self.light.dir, to: self.start, start: t, duration: RESTORE_SECS });
+    }
+
+    /// A go-to to a view with the light `to` turns to it over `duration` from `t`, the user light
+    /// dominating, unless a finger holds the light.
+    pub fn turn_to(&mut self, to: DVec3, t: f64, duration: f64) {
+        if self.pad.is_none() {
+            self.ease = Some(LightEase { from: self.light.dir, to, start: t, duration });
+            self.target_mix = ACTIVE_MIX;
+        }
+    }
+
+    /// Advances the animations to `t`, one frame of `dt` after the last.
+    pub fn step(&mut self, t: f64, dt: f64) {
+        if let Some(e) = self.ease {
+            let (dir, done) = e.at(t);
+            self.light.dir = dir;
+            if done {
+                self.ease = None;
+            }
+        }
+        self.light.mix = ease_mix(self.light.mix, self.target_mix, dt);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
