@@ -389,7 +389,7 @@ impl Project {
     fn write_pose(&mut self, pose: ModelPose) -> anyhow::Result<()> {
         let path = self.dir.join("exhibit.toml");
         let tmp = self.dir.join(".exhibit.toml.saving");
-        std::fs::write(&tmp, pose.to_toml())
+        std::fs::write(&tmp, kiosk_content::exhibit::exhibit_toml(&self.dir, &pose))
             .and_then(|()| std::fs::rename(&tmp, &path))
             .with_context(|| format!("cannot write {}", path.display()))?;
         self.pose = pose;

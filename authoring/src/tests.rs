@@ -213,6 +213,8 @@ fn a_curator_turns_the_model_upright_and_the_kiosk_reads_it() {
 #[test]
 fn a_curator_tilts_a_scan_standing_off_axis_and_the_kiosk_reads_it() {
     let dir = exhibit();
+    // The exhibit's import setting survives the pose's writes.
+    std::fs::write(dir.path().join("exhibit.toml"), "texel_density = 0.5\n").expect("write");
     let (mut p, _) = open(dir.path()).expect("open");
     p.set_front(DVec3::Z).expect("front +Z");
     // 3° then 4° about X: the pose turns as one, up and front, and the kiosk reads the vectors.
@@ -228,6 +230,8 @@ fn a_curator_tilts_a_scan_standing_off_axis_and_the_kiosk_reads_it() {
     p.tilt(DVec3::X, -7f64.to_radians()).expect("tilt back");
     let saved = std::fs::read_to_string(dir.path().join("exhibit.toml")).expect("exhibit.toml");
     assert!(saved.contains("up = \"y\"") && saved.contains("front = \"z\""), "{saved}");
+    let density = kiosk_content::exhibit::import_options(dir.path()).expect("reads").read.texel_density;
+    assert_eq!(density, 0.5, "{saved}");
     assert!(p.tilt(DVec3::ZERO, 0.1).is_err() && p.tilt(DVec3::X, f64::NAN).is_err());
 }
 

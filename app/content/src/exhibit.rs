@@ -57,7 +57,7 @@ pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
     // Whatever the working directory, so that the files it names are noted by the same paths by
     // every program sharing the cache (the kiosk, `kiosk check`, the authoring tool).
     let file = file.canonicalize().unwrap_or(file);
-    let options = ImportOptions::default();
+    let options = import_options(dir)?;
     let name = cache_name(&file, &options, kiosk_import::BUILDER_REVISION)?;
     std::fs::create_dir_all(cache).with_context(|| format!("cannot create the cache {}", cache.display()))?;
     let store = cache.join(name);
@@ -282,27 +282,84 @@ impl ModelPose {
     }
 }
 
-/// Reads [`ModelPose`] from an exhibit directory's `exhibit.toml`.
-pub fn model_pose(dir: &Path) -> anyhow::Result<ModelPose> {
+#[derive(serde::Deserialize)]
+#[serde(untagged)]
+enum Direction {
+    Axis(String),
+    Vector([f64; 3]),
+}
+
+/// `exhibit.toml`: the model's pose ([`model_pose`]) and how the kiosk imports its scan
+/// ([`import_options`]).
+#[derive(Default, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ExhibitFile {
+    up: Option<Direction>,
+    front: Option<Direction>,
+    texel_density: Option<Number>,
+}
+
+/// A number as TOML writes it (`1` is an integer, `1.0` a float).
+#[derive(Clone, Copy, serde::Deserialize)]
+#[serde(untagged)]
+enum Number {
+    Float(f64),
+    Integer(i64),
+}
+
+impl Number {
+    fn value(self) -> f64 {
+        match self {
+            Self::Float(f) => f,
+            Self::Integer(i) => i as f64,
+        }
+    }
+}
+
+/// An exhibit directory's `exhibit.toml` (its path, and the default when there is none).
+fn exhibit_file(dir: &Path) -> anyhow::Result<(PathBuf, ExhibitFile)> {
     let path = dir.join("exhibit.toml");
     let text = match std::fs::read_to_string(&path) {
         Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(ModelPose::default()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok((path, ExhibitFile::default())),
         Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
     };
-    #[derive(serde::Deserialize)]
-    #[serde(untagged)]
-    enum Direction {
-        Axis(String),
-        Vector([f64; 3]),
+    let file = toml::from_str(&text).with_context(|| format!("{}", path.display()))?;
+    Ok((path, file))
+}
+
+/// How the kiosk imports an exhibit's scan: the default settings of `kiosk import`, but for the
+/// samples per texel of a textured model, which `exhibit.toml` may set (`texel_density = 0.5`:
+/// one sample per 2 × 2 texels, for an atlas finer than the kiosk needs; more than 0, at most
+/// 64). A changed setting imports the scan again.
+pub fn import_options(dir: &Path) -> anyhow::Result<ImportOptions> {
+    let (path, file) = exhibit_file(dir)?;
+    let mut options = ImportOptions::default();
+    if let Some(d) = file.texel_density.map(Number::value) {
+        anyhow::ensure!(
+            d.is_finite() && d > 0.0 && d <= 64.0,
+            "{}: texel_density = {d}: samples per texel, more than 0 and at most 64",
+            path.display()
+        );
+        options.read.texel_density = d as f32;
     }
-    #[derive(serde::Deserialize)]
-    #[serde(deny_unknown_fields)]
-    struct ExhibitFile {
-        up: Option<Direction>,
-        front: Option<Direction>,
+    Ok(options)
+}
+
+/// `exhibit.toml`'s text for `pose`, keeping the other settings the exhibit's file has (the
+/// authoring tool rewrites the pose alone).
+pub fn exhibit_toml(dir: &Path, pose: &ModelPose) -> String {
+    let mut text = pose.to_toml();
+    if let Ok((_, ExhibitFile { texel_density: Some(d), .. })) = exhibit_file(dir) {
+        text += "# Samples per texel of the model's textures when the kiosk imports it.\n";
+        text += &format!("texel_density = {:?}\n", d.value());
     }
-    let file: ExhibitFile = toml::from_str(&text).with_context(|| format!("{}", path.display()))?;
+    text
+}
+
+/// Reads [`ModelPose`] from an exhibit directory's `exhibit.toml`.
+pub fn model_pose(dir: &Path) -> anyhow::Result<ModelPose> {
+    let (path, file) = exhibit_file(dir)?;
     let axis = |key: &str, name: &str| match UP_AXES.iter().find(|(n, _)| *n == name.trim()) {
         Some((_, axis)) => Ok(*axis),
         None => {
@@ -579,6 +636,34 @@ mod tests {
         assert_ne!(base, name(&options, 2), "an edited scan");
         let e = cache_name(&dir.path().join("gone.obj"), &options, 2).expect_err("no file");
         assert!(e.to_string().contains("gone.obj"), "{e}");
+    }
+
+    #[test]
+    fn an_exhibit_sets_the_texel_density_of_its_import() {
+        let root = tempfile::tempdir().expect("temp dir");
+        let (dir, cache) = (root.path().join("box"), root.path().join("cache"));
+        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/formats/box-textured");
+        std::fs::create_dir_all(&dir).expect("exhibit dir");
+        for f in ["box textured.obj", "box textured.mtl", "Cesium Logo Flat.png"] {
+            std::fs::copy(data.join(f), dir.join(f)).expect("copy");
+        }
+        let samples = || {
+            let store = open_model_in(&dir, &cache).expect("open");
+            store.nodes().iter().filter(|n| n.is_leaf()).map(|n| u64::from(n.point_count)).sum::<u64>()
+        };
+        let default = samples();
+        // One sample per 2 × 2 texels: about a quarter of the samples, imported again.
+        std::fs::write(dir.join("exhibit.toml"), "texel_density = 0.25\n").expect("write");
+        let quarter = samples();
+        assert!(quarter * 3 < default && quarter * 5 > default, "{quarter} against {default}");
+        // TOML's integers are numbers too; anything out of range is an error naming the key.
+        std::fs::write(dir.join("exhibit.toml"), "texel_density = 2\n").expect("write");
+        assert_eq!(import_options(&dir).expect("an integer").read.texel_density, 2.0);
+        for bad in ["texel_density = 0", "texel_density = 100", "texel_density = \"fine\""] {
+            std::fs::write(dir.join("exhibit.toml"), format!("{bad}\n")).expect("write");
+            let e = format!("{:#}", import_options(&dir).expect_err(bad));
+            assert!(e.contains("exhibit.toml") && e.contains("texel_density"), "{bad}: {e}");
+        }
     }
 
     #[test]
