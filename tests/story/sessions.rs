@@ -59,8 +59,10 @@ fn states(t: &Trace) -> Vec<String> {
 fn a_node_is_reached_by_attraction() {
     let ex = exhibit();
     let g = graph(vec![ex.orbited("side", 70.0)]);
-    // Explore toward the right for a while.
-    let t = ex.run(&g, &Script::new().wait(3.5).joystick(1, (0.3, 0.0), 8.0).wait(2.0).cancel(99));
+    // Nobody touches: the engine attracts toward the side view, finds the camera within its
+    // accept distance and flies there (a touch during the flight would take the camera:
+    // `moving_during_a_flight_takes_the_camera_where_it_is`).
+    let t = ex.run(&g, &Script::new().wait(13.5).cancel(99));
     let s = states(&t);
     assert_eq!(t.summary.nodes_displayed, vec!["side".to_string()], "states {s:?}");
     let goto = s.iter().position(|x| x == "go-to").expect("go-to");
@@ -574,4 +576,40 @@ fn a_go_to_turns_the_light_to_a_nodes_stored_light_and_keeps_the_light_without_o
     for f in &t.frames {
         assert_eq!((light(f), f.light_mix), (start, DEFAULT_MIX), "at {}", f.t);
     }
+}
+
+#[test]
+fn moving_during_a_flight_takes_the_camera_where_it_is() {
+    let ex = exhibit();
+    let g = graph(vec![
+        ex.orbited("far", 150.0),
+        ex.orbited("left", -12.0),
+        ex.orbited("right", 20.0),
+        ex.orbited("near", 4.0),
+    ]);
+    // The menu pick starts a 2 s flight to "near" at 1.3 s; half a second in, the visitor drags.
+    let pick = Script::new()
+        .down(1, 0.5, 0.5)
+        .wait(1.0)
+        .drag(&[(1, (0.5, 0.5), (0.5, 0.3))], 0.2)
+        .wait(0.1)
+        .up(1, 0.5, 0.3);
+    let t = ex.run(&g, &pick.clone().wait(0.5).joystick(2, (0.15, 0.0), 1.0).wait(3.0).cancel(99));
+    let s = states(&t);
+    let flew = s.iter().position(|x| x == "go-to").expect("a flight");
+    assert_eq!(s[flew + 1], "discover", "the drag ends the flight: {s:?}");
+    assert!(t.summary.nodes_displayed.is_empty(), "{:?}", t.summary);
+    // The camera goes on from where the flight had brought it: no jump between frames.
+    let eye = |f: &kiosk_core::trace::Frame| DVec3::from_array(f.eye);
+    let steps: Vec<f64> = t.frames.windows(2).map(|w| (eye(&w[1]) - eye(&w[0])).length()).collect();
+    let largest = steps.iter().copied().fold(0.0, f64::max);
+    let typical = {
+        let mut moving: Vec<f64> = steps.iter().copied().filter(|d| *d > 0.0).collect();
+        moving.sort_by(f64::total_cmp);
+        moving[moving.len() / 2]
+    };
+    assert!(largest < 6.0 * typical, "a jump of {largest} against a typical step of {typical}");
+    // Without the drag the flight ends at the node, displayed.
+    let t = ex.run(&g, &pick.wait(3.0).cancel(99));
+    assert_eq!(t.summary.nodes_displayed, vec!["near".to_string()]);
 }

@@ -172,6 +172,8 @@ pub struct Explorer<'a, B: AsRef<[u8]>> {
     max_distance: f64,
     tolerance: f64,
     light: Lighting,
+    /// When the last finger landed (a gesture begun during a flight takes the camera).
+    last_down: f64,
     /// Counts over the exploration.
     pub summary: Summary,
     /// When set, proposals are accepted without a visitor (the kiosk's attract loop).
@@ -239,6 +241,7 @@ impl<'a, B: AsRef<[u8]>> Explorer<'a, B> {
             max_distance,
             tolerance,
             light: Lighting::new(start_light),
+            last_down: f64::NEG_INFINITY,
             summary: Summary { min_surface_distance: f64::INFINITY, ..Summary::default() },
             autopilot: false,
         }
@@ -246,6 +249,9 @@ impl<'a, B: AsRef<[u8]>> Explorer<'a, B> {
 
     /// Feeds one touch event (to be followed by `step` at a time ≥ the event's).
     pub fn touch(&mut self, e: &TouchEvent) {
+        if e.ev == crate::gesture::TouchKind::Down {
+            self.last_down = e.t;
+        }
         self.gestures.event(e);
     }
 
@@ -441,6 +447,17 @@ impl<'a, B: AsRef<[u8]>> Explorer<'a, B> {
             intent = guide_intent(r, g, &ctx, intent, &self.controller);
         }
         let scene = SceneRef { store, cut: &self.cut };
+        // A gesture begun during a flight takes the camera where the flight has brought it: the
+        // flight stops and its node is not displayed. (The gesture that led to a flight, a
+        // visitor's drag that reached a node's view, goes on under it.)
+        let taken = |a: &GoTo| self.last_down >= a.start && !intent.is_idle() && !menu_open;
+        if let Some(a) = self.goto.filter(taken) {
+            self.controller.set_camera(scene, a.camera_at(t, scene, self.min_distance));
+            self.goto = None;
+            if let Some(r) = self.rec.as_mut() {
+                r.abandon_go_to(t);
+            }
+        }
         match self.goto {
             Some(a) => {
                 if a.done(t) {

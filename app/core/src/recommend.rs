@@ -491,6 +491,14 @@ impl Recommender {
         }
     }
 
+    /// The visitor took the camera during the flight to a node: the flight is abandoned, the node
+    /// is not displayed, and the engine discovers again from `now`.
+    pub fn abandon_go_to(&mut self, now: f64) {
+        if let RecState::GoTo { .. } = self.state {
+            self.state = RecState::Discover { since: now };
+        }
+    }
+
     /// Forgets the visit (history and state), keeping the long-run statistics.
     pub fn reset_visit(&mut self, now: f64) {
         for s in &mut self.stats {
