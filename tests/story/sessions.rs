@@ -40,6 +40,16 @@ impl Exhibit {
     }
 }
 
+/// Four views around the start view: one far behind, two beside it, one near it.
+fn four_views(ex: &Exhibit) -> InfoGraph {
+    graph(vec![
+        ex.orbited("far", 150.0),
+        ex.orbited("left", -12.0),
+        ex.orbited("right", 20.0),
+        ex.orbited("near", 4.0),
+    ])
+}
+
 fn graph(nodes: Vec<kiosk_core::graph::Node>) -> InfoGraph {
     InfoGraph { default_lang: "en".into(), nodes, edges: vec![] }
 }
@@ -113,12 +123,7 @@ fn an_ignored_proposal_times_out_back_to_discover() {
 #[test]
 fn the_radial_menu_offers_nearby_views_and_selects_by_direction() {
     let ex = exhibit();
-    let g = graph(vec![
-        ex.orbited("far", 150.0),
-        ex.orbited("left", -12.0),
-        ex.orbited("right", 20.0),
-        ex.orbited("near", 4.0),
-    ]);
+    let g = four_views(&ex);
     // Long press during discover: the menu; point up (the nearest slot) and release.
     let t = ex.run(
         &g,
@@ -581,12 +586,7 @@ fn a_go_to_turns_the_light_to_a_nodes_stored_light_and_keeps_the_light_without_o
 #[test]
 fn moving_during_a_flight_takes_the_camera_where_it_is() {
     let ex = exhibit();
-    let g = graph(vec![
-        ex.orbited("far", 150.0),
-        ex.orbited("left", -12.0),
-        ex.orbited("right", 20.0),
-        ex.orbited("near", 4.0),
-    ]);
+    let g = four_views(&ex);
     // The menu pick starts a 2 s flight to "near" at 1.3 s; half a second in, the visitor drags.
     let pick = Script::new()
         .down(1, 0.5, 0.5)

@@ -638,15 +638,21 @@ mod tests {
         assert!(e.to_string().contains("gone.obj"), "{e}");
     }
 
-    #[test]
-    fn an_exhibit_sets_the_texel_density_of_its_import() {
-        let root = tempfile::tempdir().expect("temp dir");
-        let (dir, cache) = (root.path().join("box"), root.path().join("cache"));
+    /// An exhibit of the textured box (OBJ, MTL, PNG) under `root`, and a cache beside it.
+    fn box_exhibit(root: &Path) -> (PathBuf, PathBuf) {
+        let (dir, cache) = (root.join("box"), root.join("cache"));
         let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/formats/box-textured");
         std::fs::create_dir_all(&dir).expect("exhibit dir");
         for f in ["box textured.obj", "box textured.mtl", "Cesium Logo Flat.png"] {
             std::fs::copy(data.join(f), dir.join(f)).expect("copy");
         }
+        (dir, cache)
+    }
+
+    #[test]
+    fn an_exhibit_sets_the_texel_density_of_its_import() {
+        let root = tempfile::tempdir().expect("temp dir");
+        let (dir, cache) = box_exhibit(root.path());
         let samples = || {
             let store = open_model_in(&dir, &cache).expect("open");
             store.nodes().iter().filter(|n| n.is_leaf()).map(|n| u64::from(n.point_count)).sum::<u64>()
@@ -669,12 +675,7 @@ mod tests {
     #[test]
     fn an_edited_texture_or_material_library_imports_the_scan_again() {
         let root = tempfile::tempdir().expect("temp dir");
-        let (dir, cache) = (root.path().join("box"), root.path().join("cache"));
-        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/formats/box-textured");
-        std::fs::create_dir_all(&dir).expect("exhibit dir");
-        for f in ["box textured.obj", "box textured.mtl", "Cesium Logo Flat.png"] {
-            std::fs::copy(data.join(f), dir.join(f)).expect("copy");
-        }
+        let (dir, cache) = box_exhibit(root.path());
         let mean_colour = || {
             let store = open_model_in(&dir, &cache).expect("open");
             let splats: Vec<_> =
