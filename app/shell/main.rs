@@ -507,7 +507,11 @@ fn tolerance_px(s: &str) -> Result<f32, String> {
 
 /// `--texel-density`: a positive number up to 64.
 fn texel_density(s: &str) -> Result<f32, String> {
-    number_in(s, |v| v > 0.0 && v <= 64.0, "the texel density is more than 0 and at most 64")
+    number_in(
+        s,
+        kiosk_import::ReadOptions::texel_density_ok,
+        "the texel density is more than 0 and at most 64",
+    )
 }
 
 /// Parses `eye_x,eye_y,eye_z,target_x,target_y,target_z,up_x,up_y,up_z,fov_degrees`.

@@ -296,24 +296,7 @@ enum Direction {
 struct ExhibitFile {
     up: Option<Direction>,
     front: Option<Direction>,
-    texel_density: Option<Number>,
-}
-
-/// A number as TOML writes it (`1` is an integer, `1.0` a float).
-#[derive(Clone, Copy, serde::Deserialize)]
-#[serde(untagged)]
-enum Number {
-    Float(f64),
-    Integer(i64),
-}
-
-impl Number {
-    fn value(self) -> f64 {
-        match self {
-            Self::Float(f) => f,
-            Self::Integer(i) => i as f64,
-        }
-    }
+    texel_density: Option<f32>,
 }
 
 /// An exhibit directory's `exhibit.toml` (its path, and the default when there is none).
@@ -335,13 +318,13 @@ fn exhibit_file(dir: &Path) -> anyhow::Result<(PathBuf, ExhibitFile)> {
 pub fn import_options(dir: &Path) -> anyhow::Result<ImportOptions> {
     let (path, file) = exhibit_file(dir)?;
     let mut options = ImportOptions::default();
-    if let Some(d) = file.texel_density.map(Number::value) {
+    if let Some(d) = file.texel_density {
         anyhow::ensure!(
-            d.is_finite() && d > 0.0 && d <= 64.0,
+            kiosk_import::ReadOptions::texel_density_ok(d),
             "{}: texel_density = {d}: samples per texel, more than 0 and at most 64",
             path.display()
         );
-        options.read.texel_density = d as f32;
+        options.read.texel_density = d;
     }
     Ok(options)
 }
@@ -352,7 +335,7 @@ pub fn exhibit_toml(dir: &Path, pose: &ModelPose) -> String {
     let mut text = pose.to_toml();
     if let Ok((_, ExhibitFile { texel_density: Some(d), .. })) = exhibit_file(dir) {
         text += "# Samples per texel of the model's textures when the kiosk imports it.\n";
-        text += &format!("texel_density = {:?}\n", d.value());
+        text += &format!("texel_density = {d:?}\n");
     }
     text
 }

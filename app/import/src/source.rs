@@ -55,6 +55,13 @@ pub struct ReadOptions {
     pub max_samples: u64,
 }
 
+impl ReadOptions {
+    /// Whether `d` samples per texel is a density the readers take: more than 0, at most 64.
+    pub fn texel_density_ok(d: f32) -> bool {
+        d > 0.0 && d <= 64.0
+    }
+}
+
 impl Default for ReadOptions {
     fn default() -> Self {
         Self {
