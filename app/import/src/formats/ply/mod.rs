@@ -35,7 +35,7 @@ pub(crate) fn color_channel(v: f64, ty: parse::Scalar) -> u8 {
 
 /// Reads a PLY stream (its textures, if any, are not looked for: [`read_ply_in`]).
 pub fn read_ply<E>(
-    r: &mut (dyn BufRead + Send),
+    r: &mut dyn BufRead,
     opts: &ReadOptions,
     sink: &mut dyn Sink<Error = E>,
 ) -> Result<ReadReport, ReadError<E>> {
@@ -44,7 +44,7 @@ pub fn read_ply<E>(
 
 /// Reads a PLY stream whose texture files (`comment TextureFile`) are in `dir`.
 pub fn read_ply_in<E>(
-    r: &mut (dyn BufRead + Send),
+    r: &mut dyn BufRead,
     dir: Option<&Path>,
     opts: &ReadOptions,
     sink: &mut dyn Sink<Error = E>,

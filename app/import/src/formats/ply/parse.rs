@@ -384,9 +384,9 @@ impl Row {
 /// bodies in pieces, binary rows of a fixed size a batch at a time). The results of consecutive rows are then taken in file
 /// order ([`read_body_converted`]), so that what is taken and the first error are those of a
 /// reader that converts one row after the other.
-pub trait Convert: Sync {
+pub trait Convert {
     /// What consecutive rows convert into; reused from run to run (its pages stay mapped).
-    type Out: Default + Send;
+    type Out: Default;
 
     /// Empties `out` before a run of rows.
     fn clear(&self, out: &mut Self::Out);
@@ -400,7 +400,7 @@ pub trait Convert: Sync {
 /// consecutive rows to `take`, in file order (an element without properties has nothing to
 /// read or convert). Returns warnings about tolerated oddities.
 pub fn read_body_converted<C: Convert>(
-    r: &mut (impl BufRead + Send + ?Sized),
+    r: &mut (impl BufRead + ?Sized),
     header: &Header,
     conv: &C,
     mut take: impl FnMut(&mut C::Out) -> Result<(), PlyError>,
@@ -453,7 +453,7 @@ const VARIABLE_RUN: u64 = 4096;
 /// in order (an element without properties has nothing to read or visit). Returns warnings
 /// about tolerated oddities.
 pub fn read_body(
-    r: &mut (impl BufRead + Send + ?Sized),
+    r: &mut (impl BufRead + ?Sized),
     header: &Header,
     mut visit: impl FnMut(usize, u64, &Row) -> Result<(), PlyError>,
 ) -> Result<Vec<String>, PlyError> {
@@ -610,7 +610,7 @@ impl<R: BufRead + ?Sized, C: Convert> Batches<'_, R, C> {
 /// thread of its own was measured side by side: a 5 M-point binary PLY imported in 0.97 of the
 /// time, under the 10 % a speed device must earn; docs/performance.md.)
 fn read_fixed_rows<C: Convert>(
-    r: &mut (impl BufRead + Send + ?Sized),
+    r: &mut (impl BufRead + ?Sized),
     el: &Element,
     ei: usize,
     size: usize,
