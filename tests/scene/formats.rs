@@ -608,3 +608,45 @@ fn a_gltf_with_an_unused_image_without_a_source_still_imports() {
     assert!(!points.is_empty());
     assert_eq!(report.inputs.len(), 2, "{:?}", report.inputs);
 }
+
+#[test]
+fn a_las_file_whose_colours_widen_after_its_first_chunk_is_read_as_16_bit_from_there() {
+    // LAS colour is 16-bit by the specification, 8-bit in practice for many writers; the depth
+    // is decided on the first 65 536 points. A file whose first chunk holds only values up to
+    // 255 and whose later points use 16 bits switches to 16-bit where that shows, and says
+    // which points were taken as 8-bit. The same for intensity, in a file without colour.
+    let dir = tempfile::tempdir().expect("temp dir");
+    const FIRST: u32 = 1 << 16;
+    let n = FIRST + 5000;
+    for (name, format) in [("rgb.las", 2u8), ("intensity.las", 0)] {
+        let path = dir.path().join(name);
+        let mut header = las::Builder::from((1, 2));
+        header.point_format = las::point::Format::new(format).expect("format");
+        let mut w = las::Writer::from_path(&path, header.into_header().expect("header")).expect("writer");
+        for i in 0..n {
+            // 200 in the first chunk; 40 000 of 65 535 after it.
+            let v: u16 = if i < FIRST { 200 } else { 40_000 };
+            let mut p =
+                las::Point { x: f64::from(i % 300), y: f64::from(i / 300), z: 0.0, ..Default::default() };
+            if format == 2 {
+                p.color = Some(las::Color { red: v, green: v, blue: v });
+            } else {
+                p.intensity = v;
+            }
+            w.write_point(p).expect("write");
+        }
+        w.close().expect("close");
+        let (points, report) = read_all(&path, &ReadOptions::default()).expect("read");
+        assert_eq!(points.len(), n as usize, "{name}");
+        let expected = format!("in points {}–{n}: points 1–{FIRST} were taken as 8-bit", FIRST + 1);
+        assert!(
+            report.warnings.len() == 1 && report.warnings[0].contains(&expected),
+            "{name}: {:?}",
+            report.warnings
+        );
+        let grey = |p: &InputPoint| p.color[0];
+        assert!(points[..FIRST as usize].iter().all(|p| grey(p) == 200), "{name}: the first chunk as 8-bit");
+        // 40 000 / 65 535 × 255 = 155.6.
+        assert!(points[FIRST as usize..].iter().all(|p| grey(p) == 156), "{name}: the rest as 16-bit");
+    }
+}

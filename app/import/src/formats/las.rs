@@ -3,7 +3,13 @@
 //! store's f64 origin, so millimetres survive offsets of 10⁶ m); colour is 16-bit per channel by
 //! the specification, but many writers store 8-bit values: the file is taken as 8-bit when no
 //! channel of its first points exceeds 255. Without colour, intensity becomes grey, scaled the
-//! same way (a file whose first points have neither is left without colour). Normals and spacings are estimated by the builder.
+//! same way (a file whose first points have neither is left without colour). Normals and
+//! spacings are estimated by the builder.
+//!
+//! Deciding over the whole file would need a second pass over it (for LAZ, a second decode), so
+//! a later chunk that contradicts an 8-bit decision (a value above 255) switches the rest of the
+//! file to 16-bit, with a warning naming the points taken as 8-bit: most of the model is right,
+//! and the curator knows which part is not.
 
 use crate::source::{InputPoint, ReadReport, Sink};
 use glam::DVec3;
@@ -264,7 +270,22 @@ fn read_guarded<E>(path: &Path, sink: &mut dyn Sink<Error = E>) -> Result<ReadRe
             report.warnings.push(format!("the header announces {total} points, the file holds {index}"));
             break;
         }
-        let mode = *mode.get_or_insert_with(|| Colour::of(&data, has_colors));
+        let mode = match mode {
+            None => *mode.insert(Colour::of(&data, has_colors)),
+            Some(m) => {
+                let widened = m.widened(&data);
+                if let Some(w) = widened {
+                    report.warnings.push(format!(
+                        "{} values above 255 in points {}–{}: points 1–{index} were taken as 8-bit and \
+                         are too bright; the rest is read as 16-bit",
+                        w.name(),
+                        index + 1,
+                        index + read
+                    ));
+                }
+                *mode.insert(widened.unwrap_or(m))
+            }
+        };
         let out = match (mode, data.rgb()) {
             (Colour::Rgb(max), Some(rgb)) => points(
                 &data,
@@ -330,6 +351,29 @@ impl Colour {
         match points.intensity().max() {
             Some(m) if m > 0 => Self::Intensity(range(m)),
             _ => Self::None,
+        }
+    }
+
+    /// The 16-bit mode when this is 8-bit and `points` hold a value above 255.
+    fn widened(self, points: &::las::PointData) -> Option<Self> {
+        match self {
+            Self::Rgb(max) if max < 256.0 => {
+                let above = points.rgb()?.any(|(r, g, b)| r.max(g).max(b) > 255);
+                above.then_some(Self::Rgb(65535.0))
+            }
+            Self::Intensity(max) if max < 256.0 => {
+                points.intensity().any(|i| i > 255).then_some(Self::Intensity(65535.0))
+            }
+            _ => None,
+        }
+    }
+
+    /// What the colour is made of, for warnings.
+    fn name(self) -> &'static str {
+        match self {
+            Self::Rgb(_) => "colour",
+            Self::Intensity(_) => "intensity",
+            Self::None => "no colour",
         }
     }
 }
