@@ -539,3 +539,55 @@ fn a_recorded_visit_without_light_still_replays_with_the_start_light() {
         }
     }
 }
+
+#[test]
+fn the_mouse_menu_closes_on_a_second_right_click_and_when_the_attract_tour_starts() {
+    let d = demo();
+    // Explore; the right button opens the menu and again closes it; a third right click opens
+    // it and the visitor walks away: the attract tour starts 20 s later, closes the menu and
+    // tours. A right click during the tour takes over with the menu open, a touch closes it
+    // without a pick. Recorded in the session, so it replays like any touch.
+    let s = Script::new()
+        .wait(0.2)
+        .tap(1, 0.5, 0.86)
+        .wait(0.5)
+        .menu(0.5, 0.5)
+        .wait(0.5)
+        .menu(0.5, 0.5)
+        .wait(0.5)
+        .menu(0.4, 0.5)
+        .wait(120.0)
+        .menu(0.5, 0.5)
+        .wait(0.5)
+        .tap(2, 0.5, 0.5)
+        .wait(1.0)
+        .cancel(99);
+    let settings = fast();
+    let frames = d.run(&s, &settings, 0.0);
+    let open = |t: f64| at(&frames, t).explore.as_ref().and_then(|e| e.menu.as_ref()).is_some();
+    assert!(!open(0.7), "closed before the right click");
+    assert!(open(1.0), "the right button opens the menu");
+    assert!(!open(1.5), "and a second right click closes it");
+    assert!(open(2.0), "a third opens it again");
+    let attract = frames.iter().find(|f| f.mode == Mode::Attract).expect("the attract loop starts");
+    assert!((attract.t - (1.75 + settings.attract_after_secs)).abs() < 0.1, "{}", attract.t);
+    assert!(!open(attract.t + 0.1), "the tour closes the menu left open");
+    let mut shown: Vec<String> = Vec::new();
+    for f in frames.iter().filter(|f| f.mode == Mode::Attract) {
+        if let Some(o) = f.explore.as_ref().and_then(|e| e.overlay.clone())
+            && shown.last() != Some(&o)
+        {
+            shown.push(o);
+        }
+    }
+    assert!(shown.len() >= 2, "the tour goes on with the menu closed: {shown:?}");
+    let click = 121.75;
+    assert_eq!(at(&frames, click + 0.1).mode, Mode::Explore, "a right click takes over the tour");
+    assert!(open(click + 0.1), "with the menu open");
+    assert!(!open(click + 0.7), "a tap at its centre closes it");
+    assert_eq!(
+        frames.last().expect("frames").explore.as_ref().expect("explore").overlay,
+        None,
+        "and picks nothing"
+    );
+}

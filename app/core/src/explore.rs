@@ -262,9 +262,9 @@ impl<'a, B: AsRef<[u8]>> Explorer<'a, B> {
         }
     }
 
-    /// The mouse's right button: the radial menu at this point of the controller surface.
-    pub fn menu_button(&mut self, x: f64, y: f64) {
-        self.gestures.menu_button(x, y);
+    /// Closes the radial menu, if open, without a selection (nobody is there to pick).
+    pub fn close_menu(&mut self) {
+        self.gestures.menu_cancel();
     }
 
     /// The camera shown (the go-to animation's while one runs).

@@ -80,7 +80,7 @@ impl GestureSettings {
     }
 }
 
-/// Kind of touch event: the session format's `ev` (`down`, `move`, `up`, `cancel`).
+/// Kind of touch event: the session format's `ev` (`down`, `move`, `up`, `cancel`, `menu`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum TouchKind {
@@ -90,8 +90,11 @@ pub enum TouchKind {
     Move,
     /// A finger lifts.
     Up,
-    /// The system cancels the touch.
+    /// The system cancels the touch (or a mouse button is released outside the window).
     Cancel,
+    /// The mouse's right button (9.5.2): opens the radial menu at this point, or closes an open
+    /// one without a selection. Not a finger: `id` is ignored.
+    Menu,
 }
 
 /// One touch event: `x`, `y` normalised to the controller surface, origin top-left.
@@ -270,6 +273,8 @@ impl Gestures {
                 }
                 self.regroup(e.t);
             }
+            TouchKind::Menu if self.menu_open() => self.menu_cancel(),
+            TouchKind::Menu => self.menu_button(e.x, e.y),
             TouchKind::Cancel => {
                 if self.fingers.remove(&e.id).is_none() {
                     return;
@@ -383,7 +388,8 @@ impl Gestures {
     }
 
     /// Mouse mapping (9.5.2): the right button asks for the menu at once where the pointer is;
-    /// the next moves of the pressed left button (finger `id`) select, its release picks.
+    /// the next moves of the pressed left button (finger `id`) select, its release picks
+    /// ([`TouchKind::Menu`] feeds it, or closes the menu if it is open).
     pub fn menu_button(&mut self, x: f64, y: f64) {
         if !(x.is_finite() && y.is_finite()) || self.menu_open() {
             return;

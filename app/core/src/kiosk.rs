@@ -429,6 +429,10 @@ impl<'a, B: AsRef<[u8]>> Kiosk<'a, B> {
             return;
         }
         self.last_input = self.last_input.max(e.t);
+        if e.ev == TouchKind::Menu {
+            self.menu_button(e);
+            return;
+        }
         if e.ev == TouchKind::Down {
             if self.mode == Mode::Attract {
                 // Whoever explored before has gone: a new visitor.
@@ -565,16 +569,19 @@ impl<'a, B: AsRef<[u8]>> Kiosk<'a, B> {
         }
     }
 
-    /// The mouse's right button (thesis 9.5.2): the radial menu at once.
-    pub fn menu_button(&mut self, t: f64, x: f64, y: f64) {
-        self.last_input = self.last_input.max(t);
-        if t.is_finite() {
-            self.note_touch(t);
+    /// The mouse's right button (thesis 9.5.2): the radial menu at once, or closed if open.
+    /// During the attract loop it takes over as a touch does, with the menu open.
+    fn menu_button(&mut self, e: &TouchEvent) {
+        if self.mode == Mode::Attract {
+            self.finish_visit(e.t, VisitEnd::NewVisitor);
+            self.mode = Mode::Explore;
+            if let Some(x) = self.explorers.get_mut(self.model).and_then(Option::as_mut) {
+                x.autopilot = false;
+            }
         }
-        if self.mode == Mode::Explore
-            && let Some(e) = self.explorers.get_mut(self.model).and_then(Option::as_mut)
-        {
-            e.menu_button(x, y);
+        self.note_touch(e.t);
+        if self.mode == Mode::Explore {
+            self.feed_explorer(e);
         }
     }
 
@@ -611,6 +618,8 @@ impl<'a, B: AsRef<[u8]>> Kiosk<'a, B> {
             self.light_on = false;
             if let Some(x) = self.explorers.get_mut(self.model).and_then(Option::as_mut) {
                 x.restore_light(t);
+                // A menu opened with the mouse and left open would hold the tour still.
+                x.close_menu();
             }
         }
         let mut frame = None;

@@ -157,6 +157,11 @@ impl Script {
         self.push(TouchKind::Cancel, id, 0.5, 0.5);
         self
     }
+    /// The mouse's right button at `(x, y)`: the radial menu opens there, or closes.
+    pub fn menu(mut self, x: f64, y: f64) -> Self {
+        self.push(TouchKind::Menu, 0, x, y);
+        self
+    }
     /// Time passes.
     pub fn wait(mut self, secs: f64) -> Self {
         self.t += secs;

@@ -73,44 +73,58 @@ impl TouchSource for Input {
 /// The id of the mouse's left button as a finger.
 const MOUSE_FINGER: i64 = 1 << 40;
 
-/// The mouse as a finger: its left button held down is a touch that follows the cursor.
+/// The mouse as a finger: its left button held down is a touch that follows the cursor, and
+/// released outside the window it is cancelled (as a desktop button is): a visitor who drags
+/// out of the window to give up picks nothing from the radial menu and presses no button. The
+/// right button is [`TouchKind::Menu`].
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Pointer {
-    /// Where the cursor is, on the controller's canvas (0–1).
+    /// Where the cursor is, on the controller's canvas (0–1, clamped).
     at: (f64, f64),
+    /// Whether the cursor is over the window.
+    inside: bool,
     down: bool,
 }
 
 impl Default for Pointer {
     fn default() -> Self {
-        Self { at: (0.5, 0.5), down: false }
+        Self { at: (0.5, 0.5), inside: true, down: false }
     }
 }
 
 impl Pointer {
-    /// Where the cursor is (0–1).
-    pub(super) fn at(&self) -> (f64, f64) {
-        self.at
-    }
-
-    /// The cursor moved to `(x, y)` at kiosk time `t`: a move of the finger while the button is
+    /// The cursor moved to `(x, y)` at kiosk time `t`, over the window or not (outside, the
+    /// point is the nearest of the window's edge): a move of the finger while the button is
     /// down.
-    pub(super) fn moved(&mut self, t: f64, x: f64, y: f64) -> Option<TouchEvent> {
+    pub(super) fn moved(&mut self, t: f64, x: f64, y: f64, inside: bool) -> Option<TouchEvent> {
         self.at = (x, y);
+        self.inside = inside;
         self.down.then_some(TouchEvent { t, ev: TouchKind::Move, id: MOUSE_FINGER, x, y })
     }
 
-    /// The left button pressed or released at `t`: the finger down or up (a release without a
-    /// press, e.g. of a press outside the window, is nothing).
+    /// The cursor left the window, or came back over it.
+    pub(super) fn over_window(&mut self, inside: bool) {
+        self.inside = inside;
+    }
+
+    /// The left button pressed or released at `t`: the finger down, or up (cancelled outside
+    /// the window). A release without a press, e.g. of a press outside the window, is nothing.
     pub(super) fn left(&mut self, t: f64, pressed: bool) -> Option<TouchEvent> {
         let ev = match (pressed, self.down) {
             (true, _) => TouchKind::Down,
-            (false, true) => TouchKind::Up,
+            (false, true) if self.inside => TouchKind::Up,
+            (false, true) => TouchKind::Cancel,
             (false, false) => return None,
         };
         self.down = pressed;
         let (x, y) = self.at;
         Some(TouchEvent { t, ev, id: MOUSE_FINGER, x, y })
+    }
+
+    /// The right button pressed at `t`: the radial menu where the cursor is (or closed).
+    pub(super) fn right(&self, t: f64) -> TouchEvent {
+        let (x, y) = self.at;
+        TouchEvent { t, ev: TouchKind::Menu, id: MOUSE_FINGER, x, y }
     }
 }
 
@@ -229,15 +243,36 @@ mod tests {
     #[test]
     fn the_mouse_is_a_finger_while_its_button_is_down() {
         let mut p = Pointer::default();
-        assert_eq!(p.moved(0.0, 0.2, 0.3), None, "a cursor moving with the button up touches nothing");
+        assert_eq!(p.moved(0.0, 0.2, 0.3, true), None, "a cursor moving with the button up touches nothing");
         assert_eq!(p.left(0.1, false), None, "a release without a press is nothing");
         let down = p.left(0.2, true).expect("down");
         assert_eq!((down.ev, down.x, down.y, down.id), (TouchKind::Down, 0.2, 0.3, MOUSE_FINGER));
-        let moved = p.moved(0.3, 0.4, 0.5).expect("move");
+        let moved = p.moved(0.3, 0.4, 0.5, true).expect("move");
         assert_eq!((moved.ev, moved.t, moved.x, moved.y), (TouchKind::Move, 0.3, 0.4, 0.5));
         let up = p.left(0.4, false).expect("up");
         assert_eq!((up.ev, up.x, up.y), (TouchKind::Up, 0.4, 0.5));
-        assert_eq!(p.moved(0.5, 0.6, 0.6), None);
-        assert_eq!(p.at(), (0.6, 0.6));
+        assert_eq!(p.moved(0.5, 0.6, 0.6, true), None);
+        let menu = p.right(0.6);
+        assert_eq!(
+            (menu.ev, menu.x, menu.y),
+            (TouchKind::Menu, 0.6, 0.6),
+            "the right button where the cursor is"
+        );
+    }
+
+    #[test]
+    fn the_mouse_released_outside_the_window_cancels_its_touch() {
+        let mut p = Pointer::default();
+        p.moved(0.0, 0.5, 0.5, true);
+        p.left(0.1, true).expect("down");
+        // Dragged out past the right edge (the point stays on the edge), released there.
+        let out = p.moved(0.2, 1.0, 0.5, false).expect("move");
+        assert_eq!((out.ev, out.x), (TouchKind::Move, 1.0));
+        assert_eq!(p.left(0.3, false).expect("release").ev, TouchKind::Cancel);
+        // Dragged out and back in: a release over the window is a lift.
+        p.left(0.4, true).expect("down");
+        p.over_window(false);
+        p.moved(0.5, 0.9, 0.5, true);
+        assert_eq!(p.left(0.6, false).expect("release").ev, TouchKind::Up);
     }
 }

@@ -433,11 +433,16 @@ impl ApplicationHandler for App<'_> {
                 s.input(TouchEvent { t: s.kiosk_time(self.opts.speed), ev, id: t.id as i64, x, y });
             }
             WindowEvent::CursorMoved { position, .. } => {
+                let size = s.gfx.controller.window.inner_size();
+                let inside = (0.0..f64::from(size.width)).contains(&position.x)
+                    && (0.0..f64::from(size.height)).contains(&position.y);
                 let (x, y) = s.normalised(position.x, position.y);
-                if let Some(e) = s.pointer.moved(s.kiosk_time(self.opts.speed), x, y) {
+                if let Some(e) = s.pointer.moved(s.kiosk_time(self.opts.speed), x, y, inside) {
                     s.input(e);
                 }
             }
+            WindowEvent::CursorLeft { .. } => s.pointer.over_window(false),
+            WindowEvent::CursorEntered { .. } => s.pointer.over_window(true),
             WindowEvent::MouseInput { state, button, .. } => {
                 let t = s.kiosk_time(self.opts.speed);
                 let pressed = state == ElementState::Pressed;
@@ -448,8 +453,8 @@ impl ApplicationHandler for App<'_> {
                         }
                     }
                     MouseButton::Right if pressed => {
-                        let (x, y) = s.pointer.at();
-                        s.kiosk.menu_button(t, x, y);
+                        let e = s.pointer.right(t);
+                        s.input(e);
                     }
                     _ => {}
                 }
