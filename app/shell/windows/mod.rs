@@ -667,8 +667,7 @@ impl Running<'_> {
                 let fov = self.kiosk.settings.explore.fov_y;
                 // The gallery's turntable, about the model's own up axis.
                 let c0 = ex.start_camera(fov);
-                let turn = glam::DQuat::from_axis_angle(ex.up, 0.15 * t);
-                camera = Camera { eye: c0.target + turn * (c0.eye - c0.target), up: turn * c0.up, ..c0 };
+                camera = kiosk_core::camera::turntable(c0, ex.up, t);
                 settings = lit(settings, start_light(&c0));
                 if self.gallery_cut.as_ref().is_none_or(|(m, _)| *m != model) {
                     self.gallery_cut = Some((model, Cut::root(store)));

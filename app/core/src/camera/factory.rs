@@ -135,6 +135,22 @@ fn farthest<B: AsRef<[u8]>>(store: &Store<B>, dir: DVec3, mid: DVec3) -> f64 {
     best
 }
 
+/// How far the gallery's turntable swings to each side of the front (radians: 40°).
+pub const TURNTABLE_SWING: f64 = 0.7;
+/// Seconds of one swing of the gallery's turntable, there and back.
+pub const TURNTABLE_PERIOD: f64 = 30.0;
+
+/// The gallery's turntable at time `t` (seconds): the start view swung about the model's `up`
+/// axis through its target, [`TURNTABLE_SWING`] to each side of the front, smoothly (a sine;
+/// at most 0.15 rad/s). A passer-by sees that the model is in 3D, and mostly its front (the
+/// exhibit's `front`): a full turn would show the back of a relief or a cabinet half the time.
+pub fn turntable(start: Camera, up: DVec3, t: f64) -> Camera {
+    let phase = if t.is_finite() { std::f64::consts::TAU * t / TURNTABLE_PERIOD } else { 0.0 };
+    let turn =
+        glam::DQuat::from_axis_angle(up.try_normalize().unwrap_or(DVec3::Y), TURNTABLE_SWING * phase.sin());
+    Camera { eye: start.target + turn * (start.eye - start.target), up: turn * start.up, ..start }
+}
+
 /// [`start_camera`] from the default front.
 pub fn initial_camera<B: AsRef<[u8]>>(store: &Store<B>, fov_y: f64, up: DVec3) -> Camera {
     start_camera(store, fov_y, up, None)
@@ -209,5 +225,30 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn the_gallery_turntable_shows_the_front_side_and_never_the_back() {
+        for up in [DVec3::Y, DVec3::Z, DVec3::new(0.1, 1.0, 0.2).normalize_or_zero()] {
+            let front = default_front(up);
+            let start = Camera::framing(DVec3::new(1.0, 2.0, 3.0), 0.5, front, up, 0.8);
+            assert_eq!(turntable(start, up, 0.0), start, "it starts at the front");
+            let (mut left, mut right) = (0.0f64, 0.0f64);
+            for k in 0..=1200 {
+                let cam = turntable(start, up, f64::from(k) * 0.1);
+                let from = (cam.eye - cam.target).normalize_or_zero();
+                assert!(
+                    from.dot(up).abs() < 1e-9 + (start.eye - start.target).normalize_or_zero().dot(up).abs()
+                );
+                let angle = from.dot(front).clamp(-1.0, 1.0).acos();
+                assert!(angle <= TURNTABLE_SWING + 1e-9, "{angle} rad from the front at {k}");
+                let side = front.cross(from).dot(up);
+                (left, right) = (left.max(side), right.min(side));
+                assert!((cam.up.dot(up) - start.up.dot(up)).abs() < 1e-9, "it stays upright");
+            }
+            assert!(left > 0.6 && right < -0.6, "it swings to both sides: {left} {right}");
+        }
+        let still = turntable(Camera::framing(DVec3::ZERO, 1.0, DVec3::Z, DVec3::Y, 0.8), DVec3::Y, f64::NAN);
+        assert!(still.eye.is_finite());
     }
 }

@@ -14,7 +14,8 @@ mod trackball;
 
 pub use acevit::{Acevit, AcevitSettings};
 pub use factory::{
-    ControllerKind, default_front, initial_camera, make_controller, start_camera, upright_bounds,
+    ControllerKind, TURNTABLE_PERIOD, TURNTABLE_SWING, default_front, initial_camera, make_controller,
+    start_camera, turntable, upright_bounds,
 };
 pub use isocam::{IsoCam, IsoCamSettings, StepStats, exceeds_tilt_limit};
 pub use trackball::Trackball;
