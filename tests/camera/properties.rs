@@ -205,3 +205,44 @@ fn iso_error_is_the_error_where_the_eye_ended() {
         actual
     );
 }
+
+#[test]
+fn levelling_eases_small_twists_to_the_rest_roll_and_keeps_deliberate_ones() {
+    use kiosk_core::camera::{Intent, rotate};
+    let b = bunny();
+    let cut = kiosk_core::Cut::leaves(&b.store);
+    let scene = SceneRef { store: &b.store, cut: &cut };
+    let settings = IsoCamSettings::for_model(scene.diagonal());
+    let start = kiosk_core::camera::initial_camera(&b.store, 0.8, glam::DVec3::Y);
+    // A node's view rolled by 8° (set from outside, as at the end of a go-to) is its rest roll.
+    let node =
+        kiosk_core::camera::Camera { up: rotate(start.up, start.forward(), 8f64.to_radians()), ..start };
+    let mut iso = IsoCam::new(scene, node, settings);
+    let roll_from = |c: kiosk_core::camera::Camera, of: kiosk_core::camera::Camera| {
+        c.up.dot(of.up).clamp(-1.0, 1.0).acos().to_degrees()
+    };
+    let settle = |iso: &mut IsoCam| (0..60).for_each(|_| iso.level(1.0 / 60.0));
+    settle(&mut iso);
+    assert!(roll_from(iso.camera(), node) < 1e-6, "the node's roll stays");
+    let twist = |iso: &mut IsoCam, degrees: f64| {
+        iso.apply(scene, &Intent { twist: f64::to_radians(degrees), ..Intent::default() })
+    };
+    // 15° more: within the 20° detent, back to the node's roll.
+    twist(&mut iso, 15.0);
+    assert!((roll_from(iso.camera(), node) - 15.0).abs() < 1e-6);
+    settle(&mut iso);
+    assert!(roll_from(iso.camera(), node) < 1e-6, "back to the node's roll");
+    // 50°: deliberate, it stays and becomes the rest roll; 10° more eases back to it.
+    twist(&mut iso, -50.0);
+    settle(&mut iso);
+    let turned = iso.camera();
+    assert!((roll_from(turned, node) - 50.0).abs() < 1e-6, "a deliberate twist stays");
+    twist(&mut iso, 10.0);
+    settle(&mut iso);
+    assert!(roll_from(iso.camera(), turned) < 1e-6, "back to the deliberate roll");
+    // With the detent at 0, every twist stays.
+    let mut free = IsoCam::new(scene, start, IsoCamSettings { level_snap: 0.0, ..settings });
+    free.apply(scene, &Intent { twist: 5f64.to_radians(), ..Intent::default() });
+    settle(&mut free);
+    assert!((roll_from(free.camera(), start) - 5.0).abs() < 1e-6);
+}

@@ -102,25 +102,43 @@ fn large_isolevel_orbits_smoothly_between_disconnected_parts() {
     assert!(azimuth_swept(&trace, center).abs() > std::f64::consts::PI);
 }
 
-#[test]
-fn two_finger_rotation_twists_the_up_vector() {
-    let b = scan("scans/stanford-bunny/bun_zipper_res2.ply");
-    // Finger 2 circles a quarter turn around finger 1 (radius 0.2 screen heights).
+/// Finger 2 circles `turn` radians around finger 1 (radius 0.2 screen heights) in about a
+/// second, then both lift.
+fn two_finger_rotation(turn: f64) -> Script {
     let mut s = Script::new().down(1, 0.4, 0.5).down(2, 0.4 + 0.2 / (16.0 / 9.0), 0.5);
     let n = 60;
+    let at = |a: f64| (0.4 + 0.2 * a.cos() / (16.0 / 9.0), 0.5 - 0.2 * a.sin());
     for k in 1..=n {
-        let a = std::f64::consts::FRAC_PI_2 * k as f64 / n as f64;
+        let a = turn * k as f64 / n as f64;
         s = s.wait(0.016);
+        let (x, y) = at(a);
         s.events.push(kiosk_core::gesture::TouchEvent {
             t: s.t,
             ev: kiosk_core::gesture::TouchKind::Move,
             id: 2,
-            x: 0.4 + 0.2 * a.cos() / (16.0 / 9.0),
-            y: 0.5 - 0.2 * a.sin(),
+            x,
+            y,
         });
     }
-    let s = s.up(1, 0.4, 0.5).up(2, 0.4, 0.3);
+    let end = at(turn);
+    s.up(1, 0.4, 0.5).up(2, end.0, end.1)
+}
+
+/// The roll of a trace frame's camera away from upright (+Y), radians.
+fn roll(f: &kiosk_core::trace::Frame) -> f64 {
+    let forward = (v(f.target) - v(f.eye)).normalize_or_zero();
+    let upright = (DVec3::Y - forward * forward.dot(DVec3::Y)).normalize_or_zero();
+    upright.dot(v(f.up)).clamp(-1.0, 1.0).acos()
+}
+
+#[test]
+fn two_finger_rotation_twists_the_up_vector() {
+    let b = scan("scans/stanford-bunny/bun_zipper_res2.ply");
+    // A quarter turn: deliberate, so it stays after the fingers lift.
+    let s = two_finger_rotation(std::f64::consts::FRAC_PI_2).wait(1.0).cancel(99);
     let trace = run(&b.store, &s, ControllerKind::IsoCam);
+    let last = trace.frames.last().expect("frames");
+    assert!(roll(last) > 80f64.to_radians(), "the twist stays: {:.1}°", roll(last).to_degrees());
     assert_safe(&trace);
     let first = v(trace.frames[0].up);
     let last = v(trace.frames.last().expect("frames").up);
@@ -129,6 +147,34 @@ fn two_finger_rotation_twists_the_up_vector() {
     // Twisting never moves the eye off its isolevel.
     let iso = trace.frames[0].isolevel.expect("isocam");
     assert!(trace.frames.iter().all(|f| (f.isolevel.expect("isocam") - iso).abs() < 1e-3 * iso));
+}
+
+#[test]
+fn a_small_twist_eases_back_upright_when_the_fingers_lift() {
+    // A pinch turns the fingers a little: 12° here. While they are down the view rolls with
+    // them; once they lift it comes back upright within a second, and the eye stays where it is.
+    let b = scan("scans/stanford-bunny/bun_zipper_res2.ply");
+    let s = two_finger_rotation(12f64.to_radians());
+    let lift = s.t;
+    let s = s.wait(1.0).cancel(99);
+    let trace = run(&b.store, &s, ControllerKind::IsoCam);
+    assert_safe(&trace);
+    let at = |t: f64| trace.frames.iter().find(|f| f.t + 1e-9 >= t).expect("frame");
+    let held = roll(at(lift - 0.02));
+    assert!(
+        (held - 12f64.to_radians()).abs() < 2f64.to_radians(),
+        "rolled with the fingers: {:.1}°",
+        held.to_degrees()
+    );
+    let later = at(lift + 0.15);
+    assert!(
+        roll(later) < 0.6 * held && roll(later) > 0.0,
+        "eases, no snap: {:.1}°",
+        roll(later).to_degrees()
+    );
+    let settled = at(lift + 1.0);
+    assert!(roll(settled) < 1e-6, "upright again: {:.4}°", roll(settled).to_degrees());
+    assert!((v(settled.eye) - v(at(lift).eye)).length() < 1e-9, "only the roll moves");
 }
 
 #[test]

@@ -474,6 +474,9 @@ impl<'a, B: AsRef<[u8]>> Explorer<'a, B> {
                             ((1.5 * self.max_distance - d) / (0.5 * self.max_distance)).clamp(0.0, 1.0);
                     }
                     self.controller.apply(scene, &intent, &mut self.rng);
+                    if !self.gestures.active() {
+                        self.controller.level(dt);
+                    }
                     // The visitor moves: the configured projection comes back.
                     let fov = self.controller.camera().fov_y;
                     if !intent.is_idle() && fov != settings.fov_y {

@@ -16,7 +16,11 @@
 //!   by the zoom; the move is accepted only if the new distances to the fine target, to the
 //!   coarse target and to the point looked at are all ≥ `min_distance` (forward and backward
 //!   collisions alike). A refused move is shortened by bisection to the largest safe fraction.
-//! - Twist: rotates the up vector about the view direction.
+//! - Twist: rotates the up vector about the view direction. A pinch almost always turns the
+//!   fingers a little, so a visitor who only zoomed would leave the model crooked: once the
+//!   fingers lift ([`IsoCam::level`]), a roll within `level_snap` of the view's rest roll (upright,
+//!   or the roll of the last view set from outside, such as a node's) eases back to it; a larger,
+//!   deliberate twist stays and becomes the rest roll.
 //! - Temporal smoothing (9.3.3): the screen motion of the coarse target is limited to the user's
 //!   input motion by interpolating the orientation (recursively, `smoothing_rounds`), then the
 //!   orientation is blended with the previous one (`smoothing_blend`). Only orientation is
@@ -53,6 +57,11 @@ pub struct IsoCamSettings {
     pub zoom_bisections: u32,
     /// The global up vector (default +Y).
     pub up: DVec3,
+    /// A roll within this angle of the rest roll eases back to it once the fingers lift
+    /// (radians, default 20°; 0: a twist always stays). See [`IsoCam::level`].
+    pub level_snap: f64,
+    /// Time constant of that easing, seconds (default 0.15: settled in about half a second).
+    pub level_secs: f64,
     /// Fine and coarse target searches.
     pub query: QueryParams,
 }
@@ -72,6 +81,8 @@ impl IsoCamSettings {
             smoothing_blend: 0.7,
             zoom_bisections: 8,
             up: DVec3::Y,
+            level_snap: 20f64.to_radians(),
+            level_secs: 0.15,
             query: QueryParams::default(),
         }
     }
@@ -98,6 +109,8 @@ pub struct IsoCam {
     coarse: DVec3,
     dir: DVec3,
     twist: f64,
+    /// The roll a small twist eases back to ([`IsoCam::level`]).
+    rest_twist: f64,
     fov_y: f64,
     /// Statistics of the last hover.
     pub last: StepStats,
@@ -113,6 +126,7 @@ impl IsoCam {
             coarse: cam.target,
             dir: cam.forward(),
             twist: 0.0,
+            rest_twist: 0.0,
             fov_y: cam.fov_y,
             last: StepStats::default(),
         };
@@ -137,6 +151,26 @@ impl IsoCam {
         let base = orthonormal_up(self.dir, self.settings.up, cam.up);
         let up = orthonormal_up(self.dir, cam.up, base);
         self.twist = base.cross(up).dot(self.dir).atan2(base.dot(up));
+        self.rest_twist = self.twist;
+    }
+
+    /// One frame of `dt` seconds with no finger down: a roll within `level_snap` of the rest
+    /// roll eases back to it; a larger one (a deliberate twist) becomes the rest roll.
+    pub fn level(&mut self, dt: f64) {
+        use std::f64::consts::{PI, TAU};
+        let off = (self.twist - self.rest_twist + PI).rem_euclid(TAU) - PI;
+        if off == 0.0 || !off.is_finite() || !dt.is_finite() {
+            return;
+        }
+        if off.abs() > self.settings.level_snap {
+            self.rest_twist = self.twist;
+            return;
+        }
+        let eased = off * (-dt / self.settings.level_secs.max(f64::MIN_POSITIVE)).exp();
+        // Settled exactly once it no longer shows (1 mrad: half a pixel at the edge of a 1080p
+        // image), in under a second from 20°.
+        let eased = if eased.abs() < 1e-3 { 0.0 } else { eased };
+        self.twist = (self.rest_twist + eased).rem_euclid(TAU);
     }
 
     /// Changes the vertical field of view (the projection), keeping the eye and the view.

@@ -256,6 +256,14 @@ impl Controller {
         }
     }
 
+    /// One frame of `dt` seconds with no finger down: IsoCam eases a small twist back upright
+    /// ([`IsoCam::level`]); the trackballs' roll is the visitor's to turn and stays.
+    pub fn level(&mut self, dt: f64) {
+        if let Self::IsoCam(c) = self {
+            c.level(dt);
+        }
+    }
+
     /// Applies one frame's intent.
     pub fn apply<B: AsRef<[u8]>>(
         &mut self,
