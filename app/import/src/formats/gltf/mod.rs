@@ -3,10 +3,10 @@
 //! with its nodes' transforms, its base colour (`baseColorTexture` × `baseColorFactor` × `COLOR_0`,
 //! the sampler's wrap modes, `KHR_texture_transform`; or `KHR_materials_pbrSpecularGlossiness`'s
 //! `diffuseTexture` × `diffuseFactor` where a material has it) and normals; `KHR_mesh_quantization`'s
-//! integer attributes are read as the accessors say (normalised or not). Draco- and
-//! meshopt-compressed files are refused with an error naming the extension (no maintained Rust
-//! decoder of them is a dependency here). The JSON is parsed by the `gltf` crate; accessors are
-//! read here, every range checked, so that a corrupted file is an error naming the accessor.
+//! integer attributes are read as the accessors say (normalised or not). Draco-compressed
+//! primitives are decoded ([`draco`]); meshopt-compressed files are refused with an error
+//! naming the extension. The JSON is parsed by the `gltf` crate; accessors are read here, every
+//! range checked, so that a corrupted file is an error naming the accessor.
 
 use super::surface::{Material, Surface, Tri};
 use super::texture::{Texture, TextureError, Wrap};
@@ -15,6 +15,8 @@ use crate::source::{ReadOptions, ReadReport, Sink};
 use glam::{DMat3, DMat4, DVec3, Vec3};
 use std::path::Path;
 use std::sync::Arc;
+
+mod draco;
 
 /// Why a glTF file cannot be read: where in the file (an accessor, a buffer, a node…) and what.
 #[derive(Debug, thiserror::Error)]
@@ -54,10 +56,11 @@ const READ_EXTENSIONS: &[&str] = &[
     "KHR_materials_clearcoat",
     "KHR_materials_sheen",
     "KHR_lights_punctual",
+    draco::EXTENSION,
 ];
 
-const COMPRESSED_HINT: &str = " (compressed geometry): export the model without mesh compression, e.g. `gltf-transform copy` or \
-     `gltfpack -noq` without -c, or re-export from the scanning software";
+const COMPRESSED_HINT: &str = " (compressed geometry): export the model without meshopt compression (Draco is read), e.g. \
+     `gltf-transform copy` or `gltfpack -noq` without -c, or re-export from the scanning software";
 
 /// The textures decoded, by image and wrap modes.
 type Decoded = Vec<((usize, [Wrap; 2]), Arc<Texture>)>;
@@ -110,7 +113,7 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
     let doc = &gltf.document;
     let json = doc.as_json();
     for ext in &json.extensions_required {
-        if ext.contains("draco") || ext.contains("meshopt") {
+        if ext.contains("meshopt") {
             return Err(GltfError::Unsupported { extension: ext.clone(), hint: COMPRESSED_HINT }.into());
         }
         if !READ_EXTENSIONS.contains(&ext.as_str()) {
@@ -142,8 +145,20 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
     gltf::json::validation::Validate::validate(json, json, gltf::json::Path::new, &mut |path, err| {
         problems.push((path().to_string(), err));
     });
+    // A Draco primitive's accessors have no buffer view: their data is in the Draco stream.
+    let draco_accessors: Vec<String> = json
+        .meshes
+        .iter()
+        .flat_map(|m| &m.primitives)
+        .filter(|p| p.extensions.as_ref().is_some_and(|e| e.others.contains_key(draco::EXTENSION)))
+        .flat_map(|p| p.attributes.values().chain(&p.indices))
+        .map(|a| format!("accessors[{}].bufferView", a.value()))
+        .collect();
     problems.retain(|(path, err)| {
-        !(path.starts_with("extensionsRequired") && *err == gltf::json::validation::Error::Unsupported)
+        use gltf::json::validation::Error;
+        let known_extension = path.starts_with("extensionsRequired") && *err == Error::Unsupported;
+        let in_draco_stream = *err == Error::Missing && draco_accessors.contains(path);
+        !(known_extension || in_draco_stream)
     });
     if let Some((path, err)) = problems.first() {
         return Err(GltfError::Invalid(format!("{path}: {err}")).into());
@@ -195,14 +210,23 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
                 continue;
             }
             let pos_acc = prim.get(&gltf::Semantic::Positions).ok_or_else(|| at("no POSITION".into()))?;
+            let draco = draco::Draco::of(&prim, doc, &buffers, &place)?;
             // Compressed data used without being required: only the compressed copy has data.
-            if pos_acc.view().is_none()
-                && let Some(ext) =
-                    json.extensions_used.iter().find(|e| e.contains("draco") || e.contains("meshopt"))
+            if draco.is_none()
+                && pos_acc.view().is_none()
+                && let Some(ext) = json.extensions_used.iter().find(|e| e.contains("meshopt"))
             {
                 return Err(GltfError::Unsupported { extension: ext.clone(), hint: COMPRESSED_HINT }.into());
             }
-            let pos = read_floats(&pos_acc, &buffers, &[3])?;
+            // An attribute's values: from the Draco stream when it holds them, else its accessor.
+            let floats = |semantic: gltf::Semantic, acc: &gltf::Accessor, dims: &[usize]| match draco
+                .as_ref()
+                .and_then(|d| d.floats(&semantic.to_string(), acc, dims))
+            {
+                Some(values) => values,
+                None => read_floats(acc, &buffers, dims),
+            };
+            let pos = floats(gltf::Semantic::Positions, &pos_acc, &[3])?;
             let n = pos.len() / 3;
             let base = out.positions.len();
             if base + n > u32::MAX as usize {
@@ -222,7 +246,7 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
             // Normals and colours: kept for every vertex once one primitive has them.
             normals.resize(base, Vec3::ZERO);
             if let Some(acc) = prim.get(&gltf::Semantic::Normals) {
-                let v = read_floats(&acc, &buffers, &[3])?;
+                let v = floats(gltf::Semantic::Normals, &acc, &[3])?;
                 if v.len() / 3 != n {
                     return Err(at(format!("NORMAL has {} values, POSITION {n}", v.len() / 3)).into());
                 }
@@ -237,7 +261,7 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
             }
             colors.resize(base, [1.0; 4]);
             if let Some(acc) = prim.get(&gltf::Semantic::Colors(0)) {
-                let v = read_floats(&acc, &buffers, &[3, 4])?;
+                let v = floats(gltf::Semantic::Colors(0), &acc, &[3, 4])?;
                 let dims = acc.dimensions().multiplicity();
                 if v.len() / dims != n {
                     return Err(at(format!("COLOR_0 has {} values, POSITION {n}", v.len() / dims)).into());
@@ -274,7 +298,7 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
                     let set = transform.as_ref().and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord());
                     match prim.get(&gltf::Semantic::TexCoords(set)) {
                         Some(acc) => {
-                            let v = read_floats(&acc, &buffers, &[2])?;
+                            let v = floats(gltf::Semantic::TexCoords(set), &acc, &[2])?;
                             if v.len() / 2 != n {
                                 return Err(at(format!(
                                     "TEXCOORD_{set} has {} values, POSITION {n}",
@@ -312,9 +336,10 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
                 out.materials.push(m);
                 (out.materials.len() - 1) as u32
             };
-            let indices: Vec<u32> = match prim.indices() {
-                Some(acc) => read_indices(&acc, &buffers)?,
-                None => (0..n as u32).collect(),
+            let indices: Vec<u32> = match (&draco, prim.indices()) {
+                (Some(d), _) => d.indices(),
+                (None, Some(acc)) => read_indices(&acc, &buffers)?,
+                (None, None) => (0..n as u32).collect(),
             };
             if let Some(bad) = indices.iter().find(|&&i| i as usize >= n) {
                 return Err(at(format!("index {bad} out of range: {n} vertices")).into());
