@@ -220,6 +220,8 @@ fn a_textured_box_takes_its_colours_from_the_texture_in_every_format() {
         "box-textured/box textured.obj",
         // Draco-compressed (KHR_draco_mesh_compression), decoded.
         "BoxTextured-Draco.glb",
+        // meshopt-compressed by gltfpack (EXT_meshopt_compression, quantized, octahedral normals).
+        "BoxTextured-meshopt.glb",
     ] {
         let (points, report) = read_all(&data(name), &opts).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert!(report.has_colors, "{name}");
@@ -412,8 +414,14 @@ fn broken_las_files_found_by_fuzzing_are_clear_errors() {
 }
 
 #[test]
-fn compressed_and_broken_gltf_files_are_clear_errors() {
+fn broken_gltf_files_and_unread_extensions_are_clear_errors() {
     let dir = tempfile::tempdir().expect("temp dir");
+    // An extension the importer does not read, required: named.
+    let json = std::fs::read_to_string(data("box-textured/BoxTextured.gltf")).expect("gltf");
+    let required = json.replacen('{', r#"{"extensionsRequired":["KHR_meshopt_compression"],"#, 1);
+    std::fs::write(dir.path().join("required.gltf"), required).expect("write");
+    let e = read_all(&dir.path().join("required.gltf"), &ReadOptions::default()).expect_err("required");
+    assert!(e.to_string().contains("requires the extension KHR_meshopt_compression"), "{e}");
     // A missing texture names the file.
     for f in ["BoxTextured.gltf", "BoxTextured0.bin", "box textured.obj", "box textured.mtl"] {
         std::fs::copy(data(&format!("box-textured/{f}")), dir.path().join(f)).expect("copy");
@@ -651,38 +659,46 @@ fn a_las_file_whose_colours_widen_after_its_first_chunk_is_read_as_16_bit_from_t
 }
 
 #[test]
-fn a_draco_compressed_export_reads_like_its_source() {
-    // The Belweder GLB Draco-compressed by Cesium's gltf-pipeline (11-bit positions, 10-bit
-    // texture coordinates) against the uncompressed file: the same object, its colours and its
-    // extent, within what that quantization moves.
+fn compressed_exports_read_like_their_source() {
+    // The Belweder GLB compressed by two real exporters, against the uncompressed file: Draco by
+    // Cesium's gltf-pipeline (11-bit positions, 10-bit texture coordinates) and meshopt by
+    // gltfpack (14-bit positions, 12-bit texture coordinates). The same object, its colours and
+    // its extent, within what the quantization moves.
     let opts = ReadOptions { texel_density: 0.25, ..Default::default() };
     let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("content/belweder/belweder-ot-1782.glb");
     let (a, ra) = read_all(&source, &opts).expect("source");
-    let (b, rb) = read_all(&data("belweder-draco.glb"), &opts).expect("draco");
-    assert!(ra.has_colors && rb.has_colors && rb.has_normals);
-    assert!(rb.warnings.is_empty(), "{:?}", rb.warnings);
-    // A triangle's samples follow its texel footprint, ⌈√(texels × d)⌉²: at 0.25 samples per
-    // texel most of these small triangles sit near a rounding step, and the 10-bit coordinates
-    // move their footprints across it (at 1 per texel the counts differ by 2 %).
-    let ratio = b.len() as f64 / a.len() as f64;
-    assert!((0.85..1.05).contains(&ratio), "{} samples against {}", b.len(), a.len());
-    let bounds = |p: &[InputPoint]| {
-        p.iter().fold((glam::DVec3::MAX, glam::DVec3::MIN), |(lo, hi), q| (lo.min(q.pos), hi.max(q.pos)))
-    };
-    let ((alo, ahi), (blo, bhi)) = (bounds(&a), bounds(&b));
-    let diagonal = (ahi - alo).length();
-    // 11 bits over the largest side: steps of 1/2047 of it.
-    assert!(
-        (alo - blo).abs().max_element() < 2e-3 * diagonal
-            && (ahi - bhi).abs().max_element() < 2e-3 * diagonal
-    );
-    let mean = |p: &[InputPoint]| {
-        let s = p.iter().fold([0.0f64; 3], |s, q| std::array::from_fn(|k| s[k] + f64::from(q.color[k])));
-        s.map(|c| c / p.len() as f64)
-    };
-    let (ma, mb) = (mean(&a), mean(&b));
-    assert!((0..3).all(|k| (ma[k] - mb[k]).abs() < 2.0), "mean colour {ma:?} against {mb:?}");
-    let distinct: std::collections::BTreeSet<[u8; 4]> = b.iter().map(|p| p.color).collect();
-    assert!(distinct.len() > 10_000, "{} colours: the texture is sampled", distinct.len());
-    assert!(b.iter().all(|p| (p.normal.length() - 1.0).abs() < 1e-3), "normals decoded");
+    // (file, least sample ratio, position step as a fraction of the largest side)
+    for (name, least, step) in
+        [("belweder-draco.glb", 0.85, 1.0 / 2047.0), ("belweder-meshopt.glb", 0.99, 1.0 / 16383.0)]
+    {
+        let (b, rb) = read_all(&data(name), &opts).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(ra.has_colors && rb.has_colors && rb.has_normals, "{name}");
+        assert!(rb.warnings.is_empty(), "{name}: {:?}", rb.warnings);
+        // A triangle's samples follow its texel footprint, ⌈√(texels × d)⌉²: at 0.25 samples
+        // per texel most of these small triangles sit near a rounding step, and 10-bit
+        // coordinates move their footprints across it (at 1 per texel the Draco file's count
+        // differs by 2 %).
+        let ratio = b.len() as f64 / a.len() as f64;
+        assert!((least..1.05).contains(&ratio), "{name}: {} samples against {}", b.len(), a.len());
+        let bounds = |p: &[InputPoint]| {
+            p.iter().fold((glam::DVec3::MAX, glam::DVec3::MIN), |(lo, hi), q| (lo.min(q.pos), hi.max(q.pos)))
+        };
+        let ((alo, ahi), (blo, bhi)) = (bounds(&a), bounds(&b));
+        let side = (ahi - alo).max_element();
+        let moved = (alo - blo).abs().max_element().max((ahi - bhi).abs().max_element());
+        assert!(
+            moved <= 2.0 * step * side,
+            "{name}: the extent moved by {moved}, {} steps",
+            moved / (step * side)
+        );
+        let mean = |p: &[InputPoint]| {
+            let s = p.iter().fold([0.0f64; 3], |s, q| std::array::from_fn(|k| s[k] + f64::from(q.color[k])));
+            s.map(|c| c / p.len() as f64)
+        };
+        let (ma, mb) = (mean(&a), mean(&b));
+        assert!((0..3).all(|k| (ma[k] - mb[k]).abs() < 2.0), "{name}: mean colour {ma:?} against {mb:?}");
+        let distinct: std::collections::BTreeSet<[u8; 4]> = b.iter().map(|p| p.color).collect();
+        assert!(distinct.len() > 10_000, "{name}: {} colours: the texture is sampled", distinct.len());
+        assert!(b.iter().all(|p| (p.normal.length() - 1.0).abs() < 1e-3), "{name}: normals decoded");
+    }
 }

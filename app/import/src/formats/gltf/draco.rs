@@ -5,7 +5,7 @@
 //! decodes to, and the extension maps each attribute name to the stream's attribute id.
 //! Attributes the stream does not hold are read from their accessors, as the extension allows.
 
-use super::{GltfError, view_bytes};
+use super::{Buffers, GltfError, view_bytes};
 use gltf::json::Value;
 
 /// The extension's name.
@@ -25,7 +25,7 @@ impl Draco {
     pub(super) fn of(
         prim: &gltf::Primitive,
         doc: &gltf::Document,
-        buffers: &[Vec<u8>],
+        buffers: &Buffers,
         place: &str,
     ) -> Result<Option<Self>, GltfError> {
         let Some(ext) = prim.extension_value(EXTENSION) else { return Ok(None) };

@@ -3,10 +3,10 @@
 //! with its nodes' transforms, its base colour (`baseColorTexture` × `baseColorFactor` × `COLOR_0`,
 //! the sampler's wrap modes, `KHR_texture_transform`; or `KHR_materials_pbrSpecularGlossiness`'s
 //! `diffuseTexture` × `diffuseFactor` where a material has it) and normals; `KHR_mesh_quantization`'s
-//! integer attributes are read as the accessors say (normalised or not). Draco-compressed
-//! primitives are decoded ([`draco`]); meshopt-compressed files are refused with an error
-//! naming the extension. The JSON is parsed by the `gltf` crate; accessors are read here, every
-//! range checked, so that a corrupted file is an error naming the accessor.
+//! integer attributes are read as the accessors say (normalised or not). Compressed geometry is
+//! decoded: Draco primitives ([`draco`]) and meshopt buffer views ([`meshopt`]). The JSON is
+//! parsed by the `gltf` crate; accessors are read here, every range checked, so that a
+//! corrupted file is an error naming the accessor.
 
 use super::surface::{Material, Surface, Tri};
 use super::texture::{Texture, TextureError, Wrap};
@@ -17,6 +17,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 mod draco;
+mod meshopt;
 
 /// Why a glTF file cannot be read: where in the file (an accessor, a buffer, a node…) and what.
 #[derive(Debug, thiserror::Error)]
@@ -33,12 +34,10 @@ pub enum GltfError {
         msg: String,
     },
     /// The file needs an extension the importer does not read.
-    #[error("the file requires the extension {extension}, which the importer does not read{hint}")]
+    #[error("the file requires the extension {extension}, which the importer does not read")]
     Unsupported {
         /// The extension's name.
         extension: String,
-        /// What to do about it.
-        hint: &'static str,
     },
 }
 
@@ -57,10 +56,8 @@ const READ_EXTENSIONS: &[&str] = &[
     "KHR_materials_sheen",
     "KHR_lights_punctual",
     draco::EXTENSION,
+    meshopt::EXTENSION,
 ];
-
-const COMPRESSED_HINT: &str = " (compressed geometry): export the model without meshopt compression (Draco is read), e.g. \
-     `gltf-transform copy` or `gltfpack -noq` without -c, or re-export from the scanning software";
 
 /// The textures decoded, by image and wrap modes.
 type Decoded = Vec<((usize, [Wrap; 2]), Arc<Texture>)>;
@@ -113,11 +110,8 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
     let doc = &gltf.document;
     let json = doc.as_json();
     for ext in &json.extensions_required {
-        if ext.contains("meshopt") {
-            return Err(GltfError::Unsupported { extension: ext.clone(), hint: COMPRESSED_HINT }.into());
-        }
         if !READ_EXTENSIONS.contains(&ext.as_str()) {
-            return Err(GltfError::Unsupported { extension: ext.clone(), hint: "" }.into());
+            return Err(GltfError::Unsupported { extension: ext.clone() }.into());
         }
     }
     // The crate's validation looks a POSITION accessor up before checking its index: out of
@@ -164,7 +158,9 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
         return Err(GltfError::Invalid(format!("{path}: {err}")).into());
     }
     let mut report = ReadReport::default();
-    let buffers = load_buffers(doc, gltf.blob.as_deref(), dir)?;
+    let data = load_buffers(doc, gltf.blob.as_deref(), dir)?;
+    let views = meshopt::decode_views(doc, &data)?;
+    let buffers = Buffers { data, views };
     let scene = doc
         .default_scene()
         .or_else(|| doc.scenes().next())
@@ -211,13 +207,6 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
             }
             let pos_acc = prim.get(&gltf::Semantic::Positions).ok_or_else(|| at("no POSITION".into()))?;
             let draco = draco::Draco::of(&prim, doc, &buffers, &place)?;
-            // Compressed data used without being required: only the compressed copy has data.
-            if draco.is_none()
-                && pos_acc.view().is_none()
-                && let Some(ext) = json.extensions_used.iter().find(|e| e.contains("meshopt"))
-            {
-                return Err(GltfError::Unsupported { extension: ext.clone(), hint: COMPRESSED_HINT }.into());
-            }
             // An attribute's values: from the Draco stream when it holds them, else its accessor.
             let floats = |semantic: gltf::Semantic, acc: &gltf::Accessor, dims: &[usize]| match draco
                 .as_ref()
@@ -395,7 +384,7 @@ fn base_colour<'a>(gm: &gltf::Material<'a>) -> ([f32; 4], Option<gltf::texture::
 fn material<E>(
     gm: &gltf::Material,
     doc: &gltf::Document,
-    buffers: &[Vec<u8>],
+    buffers: &Buffers,
     dir: &Path,
     textures: &mut Decoded,
 ) -> Result<Material, ReadError<E>> {
@@ -439,7 +428,7 @@ fn material<E>(
 fn image_texture<E>(
     image: &gltf::Image,
     doc: &gltf::Document,
-    buffers: &[Vec<u8>],
+    buffers: &Buffers,
     dir: &Path,
 ) -> Result<Texture, ReadError<E>> {
     let name = format!("image {}", image.index());
@@ -486,6 +475,11 @@ fn load_buffers<E>(
     doc.buffers()
         .map(|b| {
             let place = |what: &str| format!("buffer {}{what}", b.index());
+            if meshopt::is_fallback(&b) {
+                // Its views are compressed elsewhere (a view of it that is not fails as out of
+                // range, naming the view).
+                return Ok(Vec::new());
+            }
             let bytes = match b.source() {
                 gltf::buffer::Source::Bin => blob.map(<[u8]>::to_vec).ok_or_else(|| GltfError::At {
                     place: place(""),
@@ -519,9 +513,20 @@ fn load_buffers<E>(
         .collect()
 }
 
-/// The bytes of a buffer view, range checked.
-fn view_bytes<'b>(view: &gltf::buffer::View, buffers: &'b [Vec<u8>]) -> Result<&'b [u8], String> {
-    let buf = buffers.get(view.buffer().index()).ok_or("no such buffer")?;
+/// The file's buffers, and its compressed buffer views decoded.
+struct Buffers {
+    /// Each buffer's bytes (none for a meshopt fallback buffer).
+    data: Vec<Vec<u8>>,
+    /// Each buffer view's bytes, where it is meshopt-compressed.
+    views: Vec<Option<Vec<u8>>>,
+}
+
+/// The bytes of a buffer view (decoded if it is compressed), range checked.
+fn view_bytes<'b>(view: &gltf::buffer::View, buffers: &'b Buffers) -> Result<&'b [u8], String> {
+    if let Some(Some(decoded)) = buffers.views.get(view.index()) {
+        return Ok(decoded);
+    }
+    let buf = buffers.data.get(view.buffer().index()).ok_or("no such buffer")?;
     let end = view.offset().checked_add(view.length()).ok_or("range overflows")?;
     buf.get(view.offset()..end)
         .ok_or_else(|| format!("bytes {}..{end} are beyond the buffer's {}", view.offset(), buf.len()))
@@ -558,10 +563,7 @@ fn percent_decode(uri: &str) -> String {
 
 /// The raw bytes of an accessor's elements: the view's bytes, the start, the stride and the
 /// element size (range checked); `None` for an accessor without a view (all zeros).
-fn accessor_layout<'b>(
-    acc: &gltf::Accessor,
-    buffers: &'b [Vec<u8>],
-) -> Result<Option<Layout<'b>>, GltfError> {
+fn accessor_layout<'b>(acc: &gltf::Accessor, buffers: &'b Buffers) -> Result<Option<Layout<'b>>, GltfError> {
     let at = |msg: String| GltfError::At { place: format!("accessor {}", acc.index()), msg };
     if acc.sparse().is_some() {
         return Err(at("sparse accessors are not supported".into()));
@@ -597,7 +599,7 @@ fn accessor_layout<'b>(
 
 /// An accessor's values as floats (integers normalised where the accessor says so), checked
 /// to have one of `dims` components per element.
-fn read_floats(acc: &gltf::Accessor, buffers: &[Vec<u8>], dims: &[usize]) -> Result<Vec<f32>, GltfError> {
+fn read_floats(acc: &gltf::Accessor, buffers: &Buffers, dims: &[usize]) -> Result<Vec<f32>, GltfError> {
     use gltf::accessor::DataType;
     let d = acc.dimensions().multiplicity();
     if !dims.contains(&d) {
@@ -639,7 +641,7 @@ fn read_floats(acc: &gltf::Accessor, buffers: &[Vec<u8>], dims: &[usize]) -> Res
 }
 
 /// An index accessor's values.
-fn read_indices(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u32>, GltfError> {
+fn read_indices(acc: &gltf::Accessor, buffers: &Buffers) -> Result<Vec<u32>, GltfError> {
     use gltf::accessor::DataType;
     let at = |msg: String| GltfError::At { place: format!("accessor {} (indices)", acc.index()), msg };
     if acc.dimensions().multiplicity() != 1 {
