@@ -194,10 +194,12 @@ fn reader_alone(path: &Path, opts: &ReadOptions, runs: usize) -> anyhow::Result<
 }
 
 /// Textured meshes: the reader alone by samples per texel on the textured box
-/// (`tests/data/formats`), then a real textured scan, the Belweder exhibit's GLB, read alone and
-/// imported whole (3 builds, each in a child process) at the default density.
+/// (`tests/data/formats`), then a real textured scan, the Belweder exhibit's GLB, and the same
+/// GLB Draco- and meshopt-compressed by real exporters (`tests/data/formats`), each read alone
+/// and imported whole (3 builds, each in a child process) at the default density.
 fn textured_reader() -> anyhow::Result<()> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/formats/box-textured/BoxTextured.glb");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let path = root.join("tests/data/formats/box-textured/BoxTextured.glb");
     println!("\n## Textured reader alone ({}, median of 3)", path.display());
     println!("| samples per texel | samples | seconds | M samples/s |");
     println!("|---|---|---|---|");
@@ -206,15 +208,20 @@ fn textured_reader() -> anyhow::Result<()> {
         let (n, s) = reader_alone(&path, &opts, 3)?;
         println!("| {density} | {n} | {s:.3} | {:.1} |", n as f64 / s / 1e6);
     }
-    let glb = Path::new(env!("CARGO_MANIFEST_DIR")).join("content/belweder/belweder-ot-1782.glb");
-    let (n, s) = reader_alone(&glb, &ReadOptions::default(), 3)?;
-    println!("\n## A textured scan: {}", glb.display());
-    println!("reader alone, median of 3: {n} samples in {s:.3} s, {:.2} M samples/s", n as f64 / s / 1e6);
-    build_table_header("samples");
-    let out = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench/belweder.kstore");
+    let out = root.join("target/bench/belweder.kstore");
     std::fs::create_dir_all(out.parent().unwrap_or(Path::new(".")))?;
-    for _ in 0..3 {
-        child(&format!("scan:{}", glb.display()), BuildParams::default().node_points, &out, None)?;
+    for glb in [
+        root.join("content/belweder/belweder-ot-1782.glb"),
+        root.join("tests/data/formats/belweder-draco.glb"),
+        root.join("tests/data/formats/belweder-meshopt.glb"),
+    ] {
+        let (n, s) = reader_alone(&glb, &ReadOptions::default(), 3)?;
+        println!("\n## A textured scan: {}", glb.display());
+        println!("reader alone, median of 3: {n} samples in {s:.3} s, {:.2} M samples/s", n as f64 / s / 1e6);
+        build_table_header("samples");
+        for _ in 0..3 {
+            child(&format!("scan:{}", glb.display()), BuildParams::default().node_points, &out, None)?;
+        }
     }
     Ok(())
 }
