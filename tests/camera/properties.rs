@@ -240,6 +240,21 @@ fn levelling_eases_small_twists_to_the_rest_roll_and_keeps_deliberate_ones() {
     twist(&mut iso, 10.0);
     settle(&mut iso);
     assert!(roll_from(iso.camera(), turned) < 1e-6, "back to the deliberate roll");
+    // Straightening a deliberate twist by hand: from −42° (the node's 8° less 50°) back to −7°,
+    // within 20° of upright: it eases upright (and upright is the rest again).
+    twist(&mut iso, 35.0);
+    settle(&mut iso);
+    assert!(roll_from(iso.camera(), start) < 1e-6, "upright after straightening by hand");
+    // A flight interrupted halfway leaves its roll (12° here) to no one: it eases upright.
+    let halfway =
+        kiosk_core::camera::Camera { up: rotate(start.up, start.forward(), 12f64.to_radians()), ..start };
+    iso.reset(scene, halfway);
+    settle(&mut iso);
+    assert!(roll_from(iso.camera(), halfway) < 1e-6, "a view set from outside keeps its roll");
+    iso.reset(scene, halfway);
+    iso.rest_upright();
+    settle(&mut iso);
+    assert!(roll_from(iso.camera(), start) < 1e-6, "upright once the rest is");
     // With the detent at 0, every twist stays.
     let mut free = IsoCam::new(scene, start, IsoCamSettings { level_snap: 0.0, ..settings });
     free.apply(scene, &Intent { twist: 5f64.to_radians(), ..Intent::default() });

@@ -55,6 +55,19 @@ fn modes(frames: &[KioskFrame]) -> Vec<Mode> {
     v
 }
 
+/// The overlays displayed in `frames`, in order, each once per display.
+fn overlays_shown<'a>(frames: impl IntoIterator<Item = &'a KioskFrame>) -> Vec<String> {
+    let mut shown: Vec<String> = Vec::new();
+    for f in frames {
+        if let Some(o) = f.explore.as_ref().and_then(|e| e.overlay.clone())
+            && shown.last() != Some(&o)
+        {
+            shown.push(o);
+        }
+    }
+    shown
+}
+
 fn at(frames: &[KioskFrame], t: f64) -> &KioskFrame {
     frames.iter().find(|f| f.t + 1e-9 >= t).expect("frame at t")
 }
@@ -159,14 +172,7 @@ fn attract_loop_tours_the_model_and_a_touch_takes_over_then_the_reset() {
     let first_attract = frames.iter().find(|f| f.mode == Mode::Attract).expect("attract");
     assert!((first_attract.t - (0.8 + 20.0)).abs() < 0.1, "attract after 20 s idle: {}", first_attract.t);
     // The tour: the engine goes to and displays several different nodes on its own.
-    let mut shown: Vec<String> = Vec::new();
-    for f in frames.iter().filter(|f| f.t < touch_t) {
-        if let Some(o) = f.explore.as_ref().and_then(|e| e.overlay.clone())
-            && shown.last() != Some(&o)
-        {
-            shown.push(o);
-        }
-    }
+    let shown = overlays_shown(frames.iter().filter(|f| f.t < touch_t));
     let mut distinct = shown.clone();
     distinct.sort();
     distinct.dedup();
@@ -219,14 +225,7 @@ fn a_view_chosen_in_the_radial_menu_does_not_stop_the_attract_tour() {
         .wait(150.0)
         .cancel(99);
     let frames = d.run(&s, &fast(), 0.0);
-    let mut shown: Vec<String> = Vec::new();
-    for f in &frames {
-        if let Some(o) = f.explore.as_ref().and_then(|e| e.overlay.clone())
-            && shown.last() != Some(&o)
-        {
-            shown.push(o);
-        }
-    }
+    let shown = overlays_shown(&frames);
     assert!(frames.iter().any(|f| f.mode == Mode::Attract), "the attract loop started");
     assert!(shown.len() >= 3, "the tour went on after the menu's choice: {shown:?}");
 }
@@ -572,14 +571,7 @@ fn the_mouse_menu_closes_on_a_second_right_click_and_when_the_attract_tour_start
     let attract = frames.iter().find(|f| f.mode == Mode::Attract).expect("the attract loop starts");
     assert!((attract.t - (1.75 + settings.attract_after_secs)).abs() < 0.1, "{}", attract.t);
     assert!(!open(attract.t + 0.1), "the tour closes the menu left open");
-    let mut shown: Vec<String> = Vec::new();
-    for f in frames.iter().filter(|f| f.mode == Mode::Attract) {
-        if let Some(o) = f.explore.as_ref().and_then(|e| e.overlay.clone())
-            && shown.last() != Some(&o)
-        {
-            shown.push(o);
-        }
-    }
+    let shown = overlays_shown(frames.iter().filter(|f| f.mode == Mode::Attract));
     assert!(shown.len() >= 2, "the tour goes on with the menu closed: {shown:?}");
     let click = 121.75;
     assert_eq!(at(&frames, click + 0.1).mode, Mode::Explore, "a right click takes over the tour");
@@ -589,5 +581,28 @@ fn the_mouse_menu_closes_on_a_second_right_click_and_when_the_attract_tour_start
         frames.last().expect("frames").explore.as_ref().expect("explore").overlay,
         None,
         "and picks nothing"
+    );
+}
+
+#[test]
+fn a_mouse_menu_takes_the_next_press_even_on_a_button() {
+    let d = demo();
+    // The right button opens the menu at the middle; the mouse then presses on the Back button's
+    // place (top left) and releases there. No finger was down to own the menu, but that press
+    // picks from it (up and left of its centre): it does not leave the model.
+    let s = Script::new().wait(0.2).tap(1, 0.5, 0.86).wait(0.5).menu(0.5, 0.5).wait(0.3).tap(2, 0.08, 0.07);
+    let pick = s.t;
+    let s = s.wait(4.0).cancel(99);
+    let frames = d.run(&s, &fast(), 0.0);
+    assert!(
+        at(&frames, pick - 0.1).explore.as_ref().expect("explore").menu.is_some(),
+        "open before the press"
+    );
+    let after = at(&frames, pick + 0.1);
+    assert_eq!(after.mode, Mode::Explore, "the press on Back's place picked, it did not press Back");
+    assert!(after.explore.as_ref().expect("explore").menu.is_none(), "the menu closed with the pick");
+    assert!(
+        frames.iter().filter(|f| f.t > pick).any(|f| f.explore.as_ref().is_some_and(|e| e.overlay.is_some())),
+        "the picked view is displayed"
     );
 }

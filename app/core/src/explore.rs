@@ -453,6 +453,8 @@ impl<'a, B: AsRef<[u8]>> Explorer<'a, B> {
         let taken = |a: &GoTo| self.last_down >= a.start && !intent.is_idle() && !menu_open;
         if let Some(a) = self.goto.filter(taken) {
             self.controller.set_camera(scene, a.camera_at(t, scene, self.min_distance));
+            // The flight's roll halfway is nobody's choice: a small one eases back upright.
+            self.controller.rest_upright();
             self.goto = None;
             if let Some(r) = self.rec.as_mut() {
                 r.abandon_go_to(t);

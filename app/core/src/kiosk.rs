@@ -394,6 +394,7 @@ impl<'a, B: AsRef<[u8]>> Kiosk<'a, B> {
                 self.stop_narration();
                 if let Some(e) = self.explorers.get_mut(self.model).and_then(Option::as_mut) {
                     e.release_all(self.now);
+                    e.close_menu();
                 }
                 self.mode = Mode::Gallery;
                 self.help = false;
@@ -448,6 +449,9 @@ impl<'a, B: AsRef<[u8]>> Kiosk<'a, B> {
                     }
                     Route::Spent
                 }
+                // A radial menu opened with the mouse's right button has no finger down: the
+                // next press picks from it, wherever it lands.
+                Mode::Explore if self.explorer().is_some_and(|x| x.menu().is_some()) => Route::Explorer,
                 mode => {
                     let exploring = self.routes.values().any(|r| *r == Route::Explorer);
                     let lighting = self.routes.values().any(|r| matches!(r, Route::Light { .. }));

@@ -19,8 +19,9 @@
 //! - Twist: rotates the up vector about the view direction. A pinch almost always turns the
 //!   fingers a little, so a visitor who only zoomed would leave the model crooked: once the
 //!   fingers lift ([`IsoCam::level`]), a roll within `level_snap` of the view's rest roll (upright,
-//!   or the roll of the last view set from outside, such as a node's) eases back to it; a larger,
-//!   deliberate twist stays and becomes the rest roll.
+//!   or the roll of the last view set from outside, such as a node's) eases back to it, else one
+//!   within `level_snap` of upright eases upright (a visitor straightening a deliberate twist by
+//!   hand); a larger, deliberate twist stays and becomes the rest roll.
 //! - Temporal smoothing (9.3.3): the screen motion of the coarse target is limited to the user's
 //!   input motion by interpolating the orientation (recursively, `smoothing_rounds`), then the
 //!   orientation is blended with the previous one (`smoothing_blend`). Only orientation is
@@ -154,16 +155,27 @@ impl IsoCam {
         self.rest_twist = self.twist;
     }
 
+    /// The roll a small twist eases back to becomes upright (after a flight interrupted
+    /// halfway, whose roll is nobody's choice).
+    pub fn rest_upright(&mut self) {
+        self.rest_twist = 0.0;
+    }
+
     /// One frame of `dt` seconds with no finger down: a roll within `level_snap` of the rest
-    /// roll eases back to it; a larger one (a deliberate twist) becomes the rest roll.
+    /// roll eases back to it, else one within `level_snap` of upright eases upright (and upright
+    /// becomes the rest); a larger one (a deliberate twist) becomes the rest roll.
     pub fn level(&mut self, dt: f64) {
         use std::f64::consts::{PI, TAU};
-        let off = (self.twist - self.rest_twist + PI).rem_euclid(TAU) - PI;
-        if off == 0.0 || !off.is_finite() || !dt.is_finite() {
+        let signed = |a: f64| (a + PI).rem_euclid(TAU) - PI;
+        if !dt.is_finite() || !self.twist.is_finite() {
             return;
         }
-        if off.abs() > self.settings.level_snap {
-            self.rest_twist = self.twist;
+        let snap = self.settings.level_snap;
+        if signed(self.twist - self.rest_twist).abs() > snap {
+            self.rest_twist = if signed(self.twist).abs() <= snap { 0.0 } else { self.twist };
+        }
+        let off = signed(self.twist - self.rest_twist);
+        if off == 0.0 || off.abs() > snap {
             return;
         }
         let eased = off * (-dt / self.settings.level_secs.max(f64::MIN_POSITIVE)).exp();

@@ -264,6 +264,13 @@ impl Controller {
         }
     }
 
+    /// The roll a small twist eases back to becomes upright (IsoCam; see [`IsoCam::level`]).
+    pub fn rest_upright(&mut self) {
+        if let Self::IsoCam(c) = self {
+            c.rest_upright();
+        }
+    }
+
     /// Applies one frame's intent.
     pub fn apply<B: AsRef<[u8]>>(
         &mut self,
