@@ -702,3 +702,54 @@ fn compressed_exports_read_like_their_source() {
         assert!(b.iter().all(|p| (p.normal.length() - 1.0).abs() < 1e-3), "{name}: normals decoded");
     }
 }
+
+/// `glb` with its JSON chunk rewritten by `edit` (the binary chunk kept).
+fn glb_with_json(glb: &[u8], edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
+    let u32_at = |at: usize| u32::from_le_bytes(glb[at..at + 4].try_into().expect("4 bytes")) as usize;
+    let json_len = u32_at(12);
+    let mut json: serde_json::Value = serde_json::from_slice(&glb[20..20 + json_len]).expect("JSON chunk");
+    edit(&mut json);
+    let mut text = serde_json::to_vec(&json).expect("JSON");
+    while !text.len().is_multiple_of(4) {
+        text.push(b' ');
+    }
+    let bin = &glb[20 + json_len..];
+    let mut out = b"glTF".to_vec();
+    out.extend(2u32.to_le_bytes());
+    out.extend(((12 + 8 + text.len() + bin.len()) as u32).to_le_bytes());
+    out.extend((text.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(text);
+    out.extend(bin);
+    out
+}
+
+#[test]
+fn a_draco_primitive_is_read_as_its_stream_says() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let glb = std::fs::read(data("BoxTextured-Draco.glb")).expect("glb");
+    let opts = ReadOptions { texel_density: 0.25, ..Default::default() };
+    let primitive = |j: &mut serde_json::Value| j["meshes"][0]["primitives"][0].take();
+    // A primitive that names a strip: the stream's faces are a triangle list all the same.
+    let strip = glb_with_json(&glb, |j| {
+        let mut p = primitive(j);
+        p["mode"] = 5.into();
+        j["meshes"][0]["primitives"][0] = p;
+    });
+    std::fs::write(dir.path().join("strip.glb"), strip).expect("write");
+    let (points, _) = read_all(&dir.path().join("strip.glb"), &opts).expect("strip");
+    assert_eq!(points.len(), 12 * 91 * 91, "the box's 12 triangles");
+    // An attribute the stream does not hold, whose accessor has no data: an error naming the
+    // accessor, not texture coordinates of zero (one flat colour).
+    let unheld = glb_with_json(&glb, |j| {
+        let mut p = primitive(j);
+        let held = p["extensions"]["KHR_draco_mesh_compression"]["attributes"].as_object_mut().expect("map");
+        held.remove("TEXCOORD_0").expect("TEXCOORD_0 in the stream");
+        let accessor = p["attributes"]["TEXCOORD_0"].as_u64().expect("accessor");
+        j["meshes"][0]["primitives"][0] = p;
+        assert!(j["accessors"][accessor as usize].get("bufferView").is_none());
+    });
+    std::fs::write(dir.path().join("unheld.glb"), unheld).expect("write");
+    let e = read_all(&dir.path().join("unheld.glb"), &opts).expect_err("unheld").to_string();
+    assert!(e.contains("accessors[") && e.contains("bufferView"), "{e}");
+}

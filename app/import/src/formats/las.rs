@@ -251,7 +251,8 @@ fn read_guarded<E>(path: &Path, sink: &mut dyn Sink<Error = E>) -> Result<ReadRe
     let total = header.number_of_points();
     let batch = CHUNK.min(CHUNK_BYTES / u64::from(header.point_format().len()).max(1)).max(1);
     let mut report = ReadReport::default();
-    // Where colour comes from and its range (8 or 16 bits), decided on the first chunk.
+    // Where colour comes from and its range (8 or 16 bits), decided on the first chunk; a later
+    // chunk may widen 8 bits to 16 (see the module's doc).
     let mut mode: Option<Colour> = None;
     let mut index = 0u64;
     // The records of a chunk, read into one buffer reused from chunk to chunk; their fields are

@@ -46,18 +46,16 @@ pub(super) fn decode_views(
                 buffers.get(buffer).and_then(|b| b.get(offset..offset.checked_add(length)?)).ok_or_else(
                     || at(format!("bytes {offset}..+{length} of buffer {buffer} are not in the file")),
                 )?;
-            // What a sound stream decodes to is bounded by its size (meshopt compresses a few
-            // times at most); the bound keeps a corrupted count from asking for all memory.
+            // What it decodes to is the view's bytes: a count or stride that disagrees with the
+            // view is refused before anything is allocated. The crate bounds what one call may
+            // allocate (1 GiB by default); a sound stream of more than 16 MiB may decode to up to
+            // 64 times its size (meshopt compresses a few times at most).
+            if count.checked_mul(stride) != Some(view.length()) {
+                return Err(at(format!("{count} × {stride} bytes, the view has {}", view.length())));
+            }
             let limits = Limits { max_bytes: (64 * length).max(1 << 30), ..Limits::default() };
             let bytes = decode_buffer_view(mode, filter, count, stride, source, &mut Workspace::new(limits))
                 .map_err(|e| at(format!("the stream cannot be decoded: {e}")))?;
-            if bytes.len() != view.length() {
-                return Err(at(format!(
-                    "decodes to {} bytes ({count} × {stride}), the view has {}",
-                    bytes.len(),
-                    view.length()
-                )));
-            }
             Ok(Some(bytes))
         })
         .collect()

@@ -139,15 +139,21 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
     gltf::json::validation::Validate::validate(json, json, gltf::json::Path::new, &mut |path, err| {
         problems.push((path().to_string(), err));
     });
-    // A Draco primitive's accessors have no buffer view: their data is in the Draco stream.
-    let draco_accessors: Vec<String> = json
-        .meshes
-        .iter()
-        .flat_map(|m| &m.primitives)
-        .filter(|p| p.extensions.as_ref().is_some_and(|e| e.others.contains_key(draco::EXTENSION)))
-        .flat_map(|p| p.attributes.values().chain(&p.indices))
-        .map(|a| format!("accessors[{}].bufferView", a.value()))
-        .collect();
+    // The accessors of a Draco primitive's attributes held in its stream, and of its indices,
+    // have no buffer view: their data is in the stream.
+    let mut draco_accessors: Vec<String> = Vec::new();
+    for p in json.meshes.iter().flat_map(|m| &m.primitives) {
+        let Some(ext) = p.extensions.as_ref().and_then(|e| e.others.get(draco::EXTENSION)) else { continue };
+        let in_stream = ext.get("attributes").and_then(gltf::json::Value::as_object);
+        let held = |k: &gltf::json::validation::Checked<gltf::json::mesh::Semantic>| match k {
+            gltf::json::validation::Checked::Valid(s) => {
+                in_stream.is_some_and(|a| a.contains_key(&s.to_string()))
+            }
+            gltf::json::validation::Checked::Invalid => false,
+        };
+        let accessors = p.attributes.iter().filter(|(k, _)| held(k)).map(|(_, a)| a).chain(&p.indices);
+        draco_accessors.extend(accessors.map(|a| format!("accessors[{}].bufferView", a.value())));
+    }
     problems.retain(|(path, err)| {
         use gltf::json::validation::Error;
         let known_extension = path.starts_with("extensionsRequired") && *err == Error::Unsupported;
@@ -173,6 +179,8 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
     let mut any_colors = false;
     let mut normals: Vec<Vec3> = Vec::new();
     let mut colors: Vec<[f32; 4]> = Vec::new();
+    let mut decoded: std::collections::HashMap<(usize, usize), Option<Arc<draco::Draco>>> =
+        Default::default();
     let mut stack: Vec<(gltf::Node, DMat4)> = scene.nodes().map(|n| (n, DMat4::IDENTITY)).collect();
     let mut visits = 0;
     while let Some((node, parent)) = stack.pop() {
@@ -206,7 +214,13 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
                 continue;
             }
             let pos_acc = prim.get(&gltf::Semantic::Positions).ok_or_else(|| at("no POSITION".into()))?;
-            let draco = draco::Draco::of(&prim, doc, &buffers, &place)?;
+            // Decoded once per primitive, however many nodes show its mesh.
+            let draco = match decoded.entry((mesh.index(), prim.index())) {
+                std::collections::hash_map::Entry::Occupied(e) => e.get().clone(),
+                std::collections::hash_map::Entry::Vacant(e) => {
+                    e.insert(draco::Draco::of(&prim, doc, &buffers, &place)?.map(Arc::new)).clone()
+                }
+            };
             // An attribute's values: from the Draco stream when it holds them, else its accessor.
             let floats = |semantic: gltf::Semantic, acc: &gltf::Accessor, dims: &[usize]| match draco
                 .as_ref()
@@ -338,6 +352,8 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
                 let uv = if textured { [a, b, c].map(|i| uvs[i as usize]) } else { [[0.0; 2]; 3] };
                 Tri { v: [a, b, c].map(|i| base as u32 + i), uv, material: mat }
             };
+            // A Draco stream's faces are a triangle list, whatever mode the primitive names.
+            let mode = if draco.is_some() { Mode::Triangles } else { mode };
             match mode {
                 Mode::Triangles => out.tris.extend(indices.chunks_exact(3).map(|t| tri(t[0], t[1], t[2]))),
                 Mode::TriangleStrip => out.tris.extend(
