@@ -207,7 +207,7 @@ fn cache_name(file: &Path, options: &ImportOptions, revision: u32) -> anyhow::Re
         "{}-{}-{}-{:?}-{:?}-{revision}-{}",
         file.canonicalize().unwrap_or(file.to_path_buf()).display(),
         meta.len(),
-        modified.map_or(0, |d| d.as_secs()),
+        modified.map_or(0, |d| d.as_nanos()),
         options.build,
         options.read,
         kiosk_core::scene::store::VERSION
@@ -227,7 +227,8 @@ fn cache_name(file: &Path, options: &ImportOptions, revision: u32) -> anyhow::Re
 /// Together they are the model's rotation, any rotation: `up` says which way is up (a vector for
 /// a scan that stands tilted in its file; the authoring tool tilts it degree by degree), `front`
 /// turns it about that axis. `up` is made unit, `front` perpendicular to `up` and unit (default:
-/// [`kiosk_core::camera::default_front`]). No file: +Y up, the default front. An invalid file is
+/// [`kiosk_core::camera::default_front`]). No file, or no `up`: +Z up for a LAS, LAZ or E57
+/// scan, +Y for the rest, and the default front. An invalid file is
 /// an error naming it and the key. The store is not turned: the kiosk's camera, its start view
 /// and IsoCam's up vector follow the pose, so a changed pose needs no new import.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -350,7 +351,7 @@ pub fn model_pose(dir: &Path) -> anyhow::Result<ModelPose> {
         }
     };
     let up = match file.up {
-        None => glam::DVec3::Y,
+        None => default_up(dir),
         Some(Direction::Axis(name)) => axis("up", &name)?,
         Some(Direction::Vector(v)) => {
             let v = glam::DVec3::from_array(v);
@@ -391,6 +392,17 @@ fn named_axis(d: glam::DVec3) -> Option<(&'static str, glam::DVec3)> {
 /// and non-finite vectors come out non-finite).
 fn scaled(v: glam::DVec3) -> glam::DVec3 {
     v / v.abs().max_element()
+}
+
+/// The up axis of a model whose `exhibit.toml` does not say: +Z for a survey scan (LAS, LAZ,
+/// E57: their Z is the height, by their specifications and in practice), +Y for the rest (glTF's
+/// own convention, and most mesh exports).
+fn default_up(dir: &Path) -> glam::DVec3 {
+    let survey = |p: PathBuf| {
+        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("").to_ascii_lowercase();
+        [".las", ".laz", ".e57"].iter().any(|e| name.ends_with(e))
+    };
+    if model_file(dir).is_ok_and(survey) { glam::DVec3::Z } else { glam::DVec3::Y }
 }
 
 /// The up direction of an exhibit's model ([`model_pose`]'s `up`).
@@ -693,6 +705,58 @@ mod tests {
         std::fs::write(dir.join("box textured.mtl"), "newmtl Cesium logo\nKd 0.2 0.2 0.9\n").expect("mtl");
         let blue = mean_colour();
         assert!(blue[2] > blue[0] + 100.0 && blue[0] == blue[1], "the library's plain blue: {blue:?}");
+    }
+
+    #[test]
+    fn an_edit_of_the_same_size_within_the_same_second_is_imported_again() {
+        // A curator's tool that rewrites a scan in place, quickly: the size is the same and the
+        // modification time differs by less than a second.
+        let root = tempfile::tempdir().expect("temp dir");
+        let (dir, cache) = (root.path().join("ex"), root.path().join("cache"));
+        std::fs::create_dir_all(&dir).expect("exhibit dir");
+        let scan = dir.join("cloud.ply");
+        let ply = |z: &str| {
+            let rows: String = (0..16).map(|i| format!("{} {} {z}\n", i % 4, i / 4)).collect();
+            format!(
+                "ply\nformat ascii 1.0\nelement vertex 16\nproperty float x\nproperty float y\nproperty float z\nend_header\n{rows}"
+            )
+        };
+        let second = std::time::UNIX_EPOCH + std::time::Duration::from_secs(1_800_000_000);
+        let write = |text: String, millis: u64| {
+            std::fs::write(&scan, text).expect("write");
+            let f = std::fs::File::options().write(true).open(&scan).expect("open");
+            f.set_modified(second + std::time::Duration::from_millis(millis)).expect("set the time");
+        };
+        write(ply("0"), 100);
+        let first = open_model_in(&dir, &cache).expect("first");
+        write(ply("5"), 600);
+        let edited = open_model_in(&dir, &cache).expect("edited");
+        let z = |s: &MappedStore| s.to_model(s.bbox().center()).z;
+        assert!(
+            (z(&first) - 0.0).abs() < 1e-6 && (z(&edited) - 5.0).abs() < 1e-6,
+            "{} {}",
+            z(&first),
+            z(&edited)
+        );
+    }
+
+    #[test]
+    fn a_survey_scan_stands_on_z_unless_its_exhibit_says_otherwise() {
+        let root = tempfile::tempdir().expect("temp dir");
+        for (name, up) in [
+            ("scan.las", glam::DVec3::Z),
+            ("scan.E57", glam::DVec3::Z),
+            ("scan.laz", glam::DVec3::Z),
+            ("scan.glb", glam::DVec3::Y),
+            ("scan.ply", glam::DVec3::Y),
+        ] {
+            let dir = root.path().join(name.replace('.', "-"));
+            std::fs::create_dir_all(&dir).expect("dir");
+            std::fs::write(dir.join(name), b"").expect("scan");
+            assert_eq!(model_pose(&dir).expect("pose").up, up, "{name}");
+            std::fs::write(dir.join("exhibit.toml"), "up = \"x\"\n").expect("toml");
+            assert_eq!(model_pose(&dir).expect("pose").up, glam::DVec3::X, "{name}: stated");
+        }
     }
 
     #[test]
