@@ -52,8 +52,10 @@ fn main() {
         .arg("--session")
         .arg(root.join("tests/sessions/kiosk-visit.jsonl"))
         .env("XDG_RUNTIME_DIR", &runtime)
-        // Statistics and the visit log go to a temporary directory, never the user's state.
+        // Statistics and the visit log go to a temporary directory, never the user's state;
+        // the demo's imports to the build's own cache, never the user's.
         .env("ISOKIOSK_STATE", dir.path().join("state"))
+        .env("ISOKIOSK_CACHE", root.join("target/bench/cache"))
         .env("RUST_LOG", "warn")
         .output()
         .expect("xvfb-run (installed by .ci/setup)");

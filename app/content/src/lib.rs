@@ -22,8 +22,9 @@ pub type MappedStore = Store<memmap2::Mmap>;
 /// Opens a store file by memory mapping it; errors name the file.
 pub fn open_store(path: &Path) -> anyhow::Result<MappedStore> {
     let file = std::fs::File::open(path).with_context(|| format!("cannot open store {}", path.display()))?;
-    // SAFETY-free: memmap2's `map` is unsafe only because another process could truncate the
-    // file under us; the store is written under a temporary name and renamed, never rewritten.
+    // The mapping (`map_readonly`, the one `unsafe` here) is sound while no process truncates
+    // or rewrites the file: a store is written under a temporary name and renamed, never
+    // rewritten.
     let map = map_readonly(&file).with_context(|| format!("cannot map store {}", path.display()))?;
     Store::open(map).with_context(|| format!("{}", path.display()))
 }

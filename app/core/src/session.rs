@@ -223,7 +223,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn parses_the_design_example_and_round_trips() {
+    fn parses_a_session_with_its_header_and_round_trips() {
         let text = r#"{"session":1,"exhibit":"content/bunny","seed":7}
 {"t":0.000,"ev":"down","id":1,"x":0.50,"y":0.50}
 {"t":0.016,"ev":"move","id":1,"x":0.51,"y":0.50,"pressure":0.3}
