@@ -9,9 +9,8 @@
 
 use glam::DVec3;
 use kiosk_core::graph::RoiMask;
-use kiosk_core::recommend::{
-    RadialSettings, RecSettings, Recommender, ViewContext, ViewIndex, radial_candidates,
-};
+use kiosk_core::radial::{RadialSettings, ViewIndex, radial_candidates};
+use kiosk_core::recommend::{RecSettings, Recommender, ViewContext};
 use kiosk_core::scene::query::Level;
 use kiosk_core::{Cut, CutParams};
 use plotters::prelude::*;

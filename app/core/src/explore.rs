@@ -34,10 +34,8 @@ use crate::gesture::GestureSettings;
 use crate::gesture::{Gestures, MenuEvent, TouchEvent};
 use crate::graph::InfoGraph;
 use crate::light::{Light, Lighting};
-use crate::recommend::{
-    Effect, RecEvent, RecState, Recommender, Sense, ViewContext, ViewIndex, radial_candidates, slot_for_angle,
-};
-use crate::recommend::{RadialSettings, RecSettings};
+use crate::radial::{RadialSettings, ViewIndex, radial_candidates, slot_for_angle};
+use crate::recommend::{Effect, RecEvent, RecSettings, RecState, Recommender, Sense, ViewContext};
 use crate::scene::{Cut, CutParams, Level, Store};
 use crate::trace::{Frame, MenuTrace, Summary};
 use glam::DVec3;

@@ -16,6 +16,7 @@ pub mod gesture;
 pub mod graph;
 pub mod kiosk;
 pub mod light;
+pub mod radial;
 pub mod recommend;
 pub mod replay;
 pub mod scene;

@@ -13,6 +13,7 @@
 pub mod config;
 mod draw;
 mod drive;
+mod exhibits;
 mod graphics;
 pub mod heap;
 mod paint;
@@ -21,16 +22,13 @@ mod visits;
 
 use anyhow::Context as _;
 use config::Config;
+pub use exhibits::{Exhibit, kiosk_settings, load_exhibits};
 use graphics::{Graphics, Windows};
-use kiosk_content::MappedStore;
 use kiosk_content::snapshot::{lit, node_light, start_light};
-use kiosk_core::camera::start_camera;
-use kiosk_core::camera::{Camera, GoTo, SceneRef};
+use kiosk_core::camera::{GoTo, SceneRef};
 use kiosk_core::clock::Stepper;
-use kiosk_core::explore::ExploreSettings;
 use kiosk_core::gesture::{TouchEvent, TouchKind};
-use kiosk_core::graph::InfoGraph;
-use kiosk_core::kiosk::{Kiosk, KioskEffect, KioskSettings, Mode, ModelRef};
+use kiosk_core::kiosk::{Kiosk, KioskEffect, Mode, ModelRef};
 use kiosk_core::light::Light;
 use kiosk_core::recommend::RecState;
 use kiosk_core::session::Session;
@@ -85,112 +83,6 @@ pub struct RunOptions {
     pub warmup: f64,
     /// Write the kiosk's trace here (JSON Lines, one line per 60 Hz frame).
     pub trace: Option<PathBuf>,
-}
-
-/// One exhibit of the gallery.
-pub struct Exhibit {
-    /// Its directory.
-    pub dir: PathBuf,
-    /// Its model.
-    pub store: MappedStore,
-    /// Its story.
-    pub graph: Option<InfoGraph>,
-    /// Its model's up direction (`exhibit.toml`).
-    pub up: glam::DVec3,
-    /// The side its start view looks at (`exhibit.toml`), if it says.
-    pub front: Option<glam::DVec3>,
-    /// Its start view, framed once (the gallery's turntable asks at every frame, and a turned
-    /// model's framing reads samples of the store).
-    start: std::cell::OnceCell<Camera>,
-}
-
-impl Exhibit {
-    /// Its start view (`fov_y`: the kiosk's, the same for the whole run).
-    pub fn start_camera(&self, fov_y: f64) -> Camera {
-        *self.start.get_or_init(|| start_camera(&self.store, fov_y, self.up, self.front))
-    }
-
-    /// The title shown in the gallery: the first node's title, else the directory name.
-    pub fn title(&self, lang: &str) -> String {
-        self.graph
-            .as_ref()
-            .and_then(|g| g.nodes.first())
-            .and_then(|n| n.title.get(lang, self.default_lang()))
-            .map(str::to_string)
-            .unwrap_or_else(|| self.dir.file_name().map_or("?".into(), |n| n.to_string_lossy().into_owned()))
-    }
-
-    fn default_lang(&self) -> &str {
-        self.graph.as_ref().map_or("en", |g| g.default_lang.as_str())
-    }
-}
-
-/// Loads the exhibits of the configuration; a broken one is logged and left out, the rest
-/// shows. Errors only when none loads.
-pub fn load_exhibits(config: &Config) -> anyhow::Result<Vec<Exhibit>> {
-    let mut out = Vec::new();
-    for dir in config.exhibit_dirs()? {
-        let store = match kiosk_content::exhibit::open_model(&dir) {
-            Ok(s) => s,
-            Err(e) => {
-                tracing::error!("exhibit {}: {e:#}; left out of the gallery", dir.display());
-                continue;
-            }
-        };
-        let graph = match kiosk_content::exhibit::open_graph(&dir) {
-            Ok(Some((g, problems))) => {
-                for p in problems {
-                    tracing::warn!("{}: {p}", dir.join("graph.xml").display());
-                }
-                Some(g)
-            }
-            Ok(None) => None,
-            Err(e) => {
-                tracing::error!("exhibit {}: {e:#}; shown without its story", dir.display());
-                None
-            }
-        };
-        let pose = match kiosk_content::exhibit::model_pose(&dir) {
-            Ok(pose) => pose,
-            Err(e) => {
-                tracing::error!("{e:#}; the model is shown with +Y up");
-                kiosk_content::exhibit::ModelPose::default()
-            }
-        };
-        tracing::info!("exhibit {}: {} samples", dir.display(), store.header().leaf_point_count);
-        out.push(Exhibit {
-            dir,
-            store,
-            graph,
-            up: pose.up,
-            front: pose.front,
-            start: std::cell::OnceCell::new(),
-        });
-    }
-    anyhow::ensure!(!out.is_empty(), "no exhibit could be loaded from {}", config.content.display());
-    Ok(out)
-}
-
-/// The kiosk's behaviour settings from the configuration, for a projection of `size` pixels and
-/// a controller of aspect `controller_aspect`.
-pub fn kiosk_settings(config: &Config, size: (u32, u32), controller_aspect: f64, seed: u64) -> KioskSettings {
-    let mut explore = ExploreSettings {
-        size_px: size,
-        fov_y: config.fov_y(),
-        real_scale: config.real_scale.is_some(),
-        seed,
-        ..Default::default()
-    };
-    explore.cut.tolerance_px = config.tolerance_px;
-    explore.gestures.aspect = controller_aspect;
-    KioskSettings {
-        attract_after_secs: config.attract_after_secs,
-        reset_after_secs: config.reset_after_secs,
-        languages: config.languages.clone(),
-        explore,
-        popularity: config.popularity,
-        ..Default::default()
-    }
 }
 
 /// Runs the kiosk until the window closes (or the session ends).
@@ -755,7 +647,7 @@ impl Running<'_> {
         let mut radial = None;
         if let (Some(menu), Some(g)) = (self.kiosk.explorer().and_then(|x| x.menu()), ex.graph.as_ref()) {
             let pointed =
-                menu.pointing.and_then(|a| kiosk_core::recommend::slot_for_angle(a, menu.candidates.len()));
+                menu.pointing.and_then(|a| kiosk_core::radial::slot_for_angle(a, menu.candidates.len()));
             let candidates = menu.candidates.clone();
             let mut items = Vec::new();
             for i in candidates {
