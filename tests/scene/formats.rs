@@ -252,17 +252,29 @@ fn a_textured_box_takes_its_colours_from_the_texture_in_every_format() {
 
 #[test]
 fn texture_colour_arrives_in_the_store() {
+    use kiosk_content::import::Phase;
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("box.kstore");
     let mut opts = kiosk_content::import::ImportOptions::default();
     opts.read.texel_density = 0.25;
+    let mut seen: Vec<(Phase, u64, u64)> = Vec::new();
     kiosk_content::import::import(
         &data("box-textured/BoxTextured.glb"),
         &out,
         &opts,
-        &mut kiosk_content::import::quiet,
+        &mut |phase, done, total| seen.push((phase, done, total)),
     )
     .expect("import");
+    // The progress bar knows how many samples the surface makes before the first one, and
+    // counts up to it.
+    let reading: Vec<_> = seen.iter().filter(|(p, ..)| *p == Phase::Reading).collect();
+    let first_total = reading.iter().position(|&&(_, _, total)| total > 0).expect("a total");
+    assert!(
+        reading[first_total].1 == 0 && reading[first_total].2 == 12 * 91 * 91,
+        "{:?}",
+        reading[first_total]
+    );
+    assert!(reading.last().is_some_and(|&&(_, done, total)| done == total), "{:?}", reading.last());
     let store = kiosk_content::open_store(&out).expect("store");
     let tris = box_triangles();
     let img = image::open(data("box-textured/Cesium Logo Flat.png")).expect("png").to_rgba8();

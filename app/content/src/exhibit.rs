@@ -194,7 +194,15 @@ pub fn cache_dir() -> PathBuf {
     var("ISOKIOSK_CACHE")
         .or_else(|| var("XDG_CACHE_HOME").map(|d| d.join("isokiosk")))
         .or_else(|| var("HOME").map(|d| d.join(".cache/isokiosk")))
-        .unwrap_or_else(|| std::env::temp_dir().join("isokiosk-cache"))
+        .unwrap_or_else(|| {
+            let temp = std::env::temp_dir().join("isokiosk-cache");
+            tracing::warn!(
+                "no ISOKIOSK_CACHE, XDG_CACHE_HOME or HOME: scans are imported into {}, which a \
+                 reboot may clear (set ISOKIOSK_CACHE for a lasting cache)",
+                temp.display()
+            );
+            temp
+        })
 }
 
 /// The file name of the store cached from the scan `file`: its name and a hash of its path, size

@@ -26,8 +26,8 @@ pub struct ImportOptions {
 /// The phases an import reports its progress in.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Phase {
-    /// The scan is read (done: samples read; total: samples the file says it holds, 0 when it
-    /// does not say).
+    /// The scan is read (done: samples read; total: samples the file says it holds, or that a
+    /// mesh's surface makes once its triangles are read; 0 when not known).
     Reading,
     /// The samples are distributed to regions (done and total: samples).
     Sorting,

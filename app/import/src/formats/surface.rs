@@ -192,6 +192,8 @@ impl Surface {
         if total > params.max_samples {
             return Err(SurfaceError::TooManySamples { samples: total, limit: params.max_samples }.into());
         }
+        // Known before the first sample: the progress bar has its total (and an estimate).
+        sink.expect(total);
         let smooth = self.smooth_normals();
         let vertex_colors = &self.colors;
         let mut made = 0u64;
