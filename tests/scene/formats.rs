@@ -765,3 +765,41 @@ fn a_draco_primitive_is_read_as_its_stream_says() {
     let e = read_all(&dir.path().join("unheld.glb"), &opts).expect_err("unheld").to_string();
     assert!(e.contains("accessors[") && e.contains("bufferView"), "{e}");
 }
+
+#[test]
+fn las_1_0_and_1_1_files_read_like_1_2() {
+    // laspy's test cloud written as LAS 1.0, 1.1 and 1.2 with point format 1 (the newest both old
+    // versions have: no colour, so intensity is the grey): the same points and greys from each.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut reader = las::Reader::from_path(data("simple.laz")).expect("read simple.laz");
+    let original: Vec<las::Point> =
+        reader.read_all().expect("points").points().map(|p| p.expect("point")).collect();
+    let mut read = Vec::new();
+    for minor in [0u8, 1, 2] {
+        let path = dir.path().join(format!("v1{minor}.las"));
+        let mut header = las::Builder::from((1, minor));
+        header.point_format = las::point::Format::new(1).expect("format 1");
+        header.transforms = *reader.header().transforms();
+        let mut w = las::Writer::from_path(&path, header.into_header().expect("header")).expect("writer");
+        for p in &original {
+            w.write_point(las::Point { color: None, ..p.clone() }).expect("write");
+        }
+        w.close().expect("close");
+        let version = las::Reader::from_path(&path).expect("reread").header().version();
+        assert_eq!((version.major, version.minor), (1, minor));
+        let (points, report) =
+            read_all(&path, &ReadOptions::default()).unwrap_or_else(|e| panic!("1.{minor}: {e}"));
+        assert!(report.warnings.is_empty(), "1.{minor}: {:?}", report.warnings);
+        assert_eq!(points.len(), original.len(), "1.{minor}");
+        read.push(points);
+    }
+    for (minor, points) in read.iter().enumerate() {
+        for (p, q) in points.iter().zip(&original) {
+            assert!((p.pos - glam::DVec3::new(q.x, q.y, q.z)).abs().max_element() < 1e-9, "1.{minor}");
+        }
+        let greys: std::collections::BTreeSet<u8> = points.iter().map(|p| p.color[0]).collect();
+        assert!(greys.len() > 4, "1.{minor}: intensity becomes grey: {greys:?}");
+        let same = points.iter().zip(&read[2]).all(|(a, b)| a.color == b.color && a.pos == b.pos);
+        assert!(same, "1.{minor} reads like 1.2");
+    }
+}

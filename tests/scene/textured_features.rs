@@ -348,9 +348,11 @@ fn a_ply_with_a_texture_file_and_per_vertex_coordinates_takes_the_texture_colour
     let dir = tempfile::tempdir().expect("temp dir");
     let tex = Blocks { side: 16, n: 4, palette: 1 };
     tex.write(&dir.path().join("tex.png"));
-    for (name, [u, v], grey) in
-        [("texture_uv.ply", ["texture_u", "texture_v"], false), ("st.ply", ["s", "t"], true)]
-    {
+    for (name, [u, v], grey) in [
+        ("texture_uv.ply", ["texture_u", "texture_v"], false),
+        ("st.ply", ["s", "t"], true),
+        ("uv.ply", ["u", "v"], false),
+    ] {
         let mut text = "ply\nformat ascii 1.0\ncomment TextureFile tex.png\nelement vertex 4\n".to_string();
         text += "property float x\nproperty float y\nproperty float z\n";
         text += &format!("property float {u}\nproperty float {v}\n");
