@@ -222,6 +222,8 @@ fn a_textured_box_takes_its_colours_from_the_texture_in_every_format() {
         "BoxTextured-Draco.glb",
         // meshopt-compressed by gltfpack (EXT_meshopt_compression, quantized, octahedral normals).
         "BoxTextured-meshopt.glb",
+        // The same as KHR_meshopt_compression (version 1 of the vertex codec).
+        "BoxTextured-meshopt-khr.glb",
     ] {
         let (points, report) = read_all(&data(name), &opts).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert!(report.has_colors, "{name}");
@@ -430,10 +432,10 @@ fn broken_gltf_files_and_unread_extensions_are_clear_errors() {
     let dir = tempfile::tempdir().expect("temp dir");
     // An extension the importer does not read, required: named.
     let json = std::fs::read_to_string(data("box-textured/BoxTextured.gltf")).expect("gltf");
-    let required = json.replacen('{', r#"{"extensionsRequired":["KHR_meshopt_compression"],"#, 1);
+    let required = json.replacen('{', r#"{"extensionsRequired":["EXT_mesh_gpu_instancing"],"#, 1);
     std::fs::write(dir.path().join("required.gltf"), required).expect("write");
     let e = read_all(&dir.path().join("required.gltf"), &ReadOptions::default()).expect_err("required");
-    assert!(e.to_string().contains("requires the extension KHR_meshopt_compression"), "{e}");
+    assert!(e.to_string().contains("requires the extension EXT_mesh_gpu_instancing"), "{e}");
     // A missing texture names the file.
     for f in ["BoxTextured.gltf", "BoxTextured0.bin", "box textured.obj", "box textured.mtl"] {
         std::fs::copy(data(&format!("box-textured/{f}")), dir.path().join(f)).expect("copy");

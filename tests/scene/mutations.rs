@@ -153,6 +153,7 @@ fn broken_survey_files_never_panic_and_errors_say_something() {
         "formats/box-textured/BoxTextured.glb",
         "formats/BoxTextured-Draco.glb",
         "formats/BoxTextured-meshopt.glb",
+        "formats/BoxTextured-meshopt-khr.glb",
         "formats/box-textured/BoxTexturedQuantized.gltf",
         "ply-corpus/ok/trimesh/fuze.ply",
         "formats/fuze/fuze.obj",

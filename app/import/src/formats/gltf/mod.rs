@@ -4,9 +4,9 @@
 //! the sampler's wrap modes, `KHR_texture_transform`; or `KHR_materials_pbrSpecularGlossiness`'s
 //! `diffuseTexture` × `diffuseFactor` where a material has it) and normals; `KHR_mesh_quantization`'s
 //! integer attributes are read as the accessors say (normalised or not). Compressed geometry is
-//! decoded: Draco primitives ([`draco`]) and meshopt buffer views ([`meshopt`]). The JSON is
-//! parsed by the `gltf` crate; accessors are read here, every range checked, so that a
-//! corrupted file is an error naming the accessor.
+//! decoded: Draco primitives ([`draco`]) and meshopt buffer views, EXT or KHR ([`meshopt`]).
+//! The JSON is parsed by the `gltf` crate; accessors are read here, every range checked, so
+//! that a corrupted file is an error naming the accessor.
 
 use super::surface::{Material, Surface, Tri};
 use super::texture::{Texture, TextureError, Wrap};
@@ -56,7 +56,8 @@ const READ_EXTENSIONS: &[&str] = &[
     "KHR_materials_sheen",
     "KHR_lights_punctual",
     draco::EXTENSION,
-    meshopt::EXTENSION,
+    meshopt::EXTENSIONS[0],
+    meshopt::EXTENSIONS[1],
 ];
 
 /// The textures decoded, by image and wrap modes.
