@@ -205,7 +205,8 @@ pub fn cache_dir() -> PathBuf {
         })
 }
 
-/// The file name of the store cached from the scan `file`: its name and a hash of its path, size
+/// The file name of the store cached from the scan `file` (canonical: every program sharing the
+/// cache finds the same name): its name and a hash of its path, size
 /// and modification time, the readers' and the builder's settings, the importer's `revision`
 /// and the store format's version — a store made otherwise is not reused.
 fn cache_name(file: &Path, options: &ImportOptions, revision: u32) -> anyhow::Result<String> {
@@ -213,7 +214,7 @@ fn cache_name(file: &Path, options: &ImportOptions, revision: u32) -> anyhow::Re
     let modified = meta.modified().ok().and_then(|m| m.duration_since(std::time::UNIX_EPOCH).ok());
     let key = format!(
         "{}-{}-{}-{:?}-{:?}-{revision}-{}",
-        file.canonicalize().unwrap_or(file.to_path_buf()).display(),
+        file.display(),
         meta.len(),
         modified.map_or(0, |d| d.as_nanos()),
         options.build,

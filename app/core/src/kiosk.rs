@@ -435,20 +435,14 @@ impl<'a, B: AsRef<[u8]>> Kiosk<'a, B> {
             return;
         }
         if e.ev == TouchKind::Down {
-            if self.mode == Mode::Attract {
-                // Whoever explored before has gone: a new visitor.
-                self.finish_visit(e.t, VisitEnd::NewVisitor);
+            let took_over = self.mode == Mode::Attract;
+            if took_over {
+                self.take_over_tour(e.t);
             }
             self.note_touch(e.t);
             let route = match self.mode {
-                Mode::Attract => {
-                    // A touch takes over: the tour stops, this finger is spent.
-                    self.mode = Mode::Explore;
-                    if let Some(x) = self.explorers.get_mut(self.model).and_then(Option::as_mut) {
-                        x.autopilot = false;
-                    }
-                    Route::Spent
-                }
+                // The finger that stopped the tour is spent.
+                _ if took_over => Route::Spent,
                 // A radial menu opened with the mouse's right button has no finger down: the
                 // next press picks from it, wherever it lands.
                 Mode::Explore if self.explorer().is_some_and(|x| x.menu().is_some()) => Route::Explorer,
@@ -577,15 +571,21 @@ impl<'a, B: AsRef<[u8]>> Kiosk<'a, B> {
     /// During the attract loop it takes over as a touch does, with the menu open.
     fn menu_button(&mut self, e: &TouchEvent) {
         if self.mode == Mode::Attract {
-            self.finish_visit(e.t, VisitEnd::NewVisitor);
-            self.mode = Mode::Explore;
-            if let Some(x) = self.explorers.get_mut(self.model).and_then(Option::as_mut) {
-                x.autopilot = false;
-            }
+            self.take_over_tour(e.t);
         }
         self.note_touch(e.t);
         if self.mode == Mode::Explore {
             self.feed_explorer(e);
+        }
+    }
+
+    /// A visitor's touch or click at `t` stops the attract tour: whoever explored before has gone
+    /// (a new visit), and exploring is the visitor's again.
+    fn take_over_tour(&mut self, t: f64) {
+        self.finish_visit(t, VisitEnd::NewVisitor);
+        self.mode = Mode::Explore;
+        if let Some(x) = self.explorers.get_mut(self.model).and_then(Option::as_mut) {
+            x.autopilot = false;
         }
     }
 

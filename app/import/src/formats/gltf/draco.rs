@@ -11,6 +11,22 @@ use gltf::json::Value;
 /// The extension's name.
 pub(super) const EXTENSION: &str = "KHR_draco_mesh_compression";
 
+/// The accessors whose data is in a Draco stream, with no buffer view of their own: those of
+/// the attributes each Draco primitive's stream holds, and of its indices.
+pub(super) fn stream_accessors(json: &gltf::json::Root) -> impl Iterator<Item = usize> + '_ {
+    use gltf::json::validation::Checked;
+    json.meshes.iter().flat_map(|m| &m.primitives).flat_map(|p| {
+        let ext = p.extensions.as_ref().and_then(|e| e.others.get(EXTENSION));
+        let held = ext.and_then(|e| e.get("attributes")).and_then(Value::as_object);
+        let in_stream = move |k: &Checked<gltf::json::mesh::Semantic>| match (k, held) {
+            (Checked::Valid(s), Some(held)) => held.contains_key(&s.to_string()),
+            _ => false,
+        };
+        let attributes = p.attributes.iter().filter(move |(k, _)| in_stream(k)).map(|(_, a)| a.value());
+        attributes.chain(p.indices.iter().filter(move |_| ext.is_some()).map(|a| a.value()))
+    })
+}
+
 /// A primitive's Draco stream, decoded.
 pub(super) struct Draco {
     mesh: draco_core::mesh::Mesh,

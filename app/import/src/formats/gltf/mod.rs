@@ -140,21 +140,8 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
     gltf::json::validation::Validate::validate(json, json, gltf::json::Path::new, &mut |path, err| {
         problems.push((path().to_string(), err));
     });
-    // The accessors of a Draco primitive's attributes held in its stream, and of its indices,
-    // have no buffer view: their data is in the stream.
-    let mut draco_accessors: Vec<String> = Vec::new();
-    for p in json.meshes.iter().flat_map(|m| &m.primitives) {
-        let Some(ext) = p.extensions.as_ref().and_then(|e| e.others.get(draco::EXTENSION)) else { continue };
-        let in_stream = ext.get("attributes").and_then(gltf::json::Value::as_object);
-        let held = |k: &gltf::json::validation::Checked<gltf::json::mesh::Semantic>| match k {
-            gltf::json::validation::Checked::Valid(s) => {
-                in_stream.is_some_and(|a| a.contains_key(&s.to_string()))
-            }
-            gltf::json::validation::Checked::Invalid => false,
-        };
-        let accessors = p.attributes.iter().filter(|(k, _)| held(k)).map(|(_, a)| a).chain(&p.indices);
-        draco_accessors.extend(accessors.map(|a| format!("accessors[{}].bufferView", a.value())));
-    }
+    let draco_accessors: Vec<String> =
+        draco::stream_accessors(json).map(|a| format!("accessors[{a}].bufferView")).collect();
     problems.retain(|(path, err)| {
         use gltf::json::validation::Error;
         let known_extension = path.starts_with("extensionsRequired") && *err == Error::Unsupported;
