@@ -2,10 +2,10 @@
 //! the index, then the header at offset 0. The file is written under a temporary name and
 //! renamed into place at the end, so an interrupted import never leaves a half store behind.
 //!
-//! [`NodeSink`] runs the writer on a thread of its own: nodes get their ids before they are made,
-//! are sent from any thread as they are completed and are written in id order while the build
-//! goes on. The bytes go through an ordinary buffered file (the page cache); the store is synced
-//! once, at the end.
+//! [`NodeSink`] shares the writer between the threads that build: nodes get their ids before
+//! they are made, are sent from any thread as they are completed and are written in id order.
+//! The bytes go through an ordinary buffered file (the page cache); the store is synced once, at
+//! the end.
 
 use kiosk_core::scene::boxtree::box_count;
 use kiosk_core::scene::store::{self, NONE, NodeRecord, StoreHeader};
@@ -81,6 +81,12 @@ impl StoreWriter {
         debug_assert_eq!(boxes.len(), box_count(splats.len()));
         debug_assert_eq!(stats.data_crc, store::node_data_crc(splats, boxes));
         let id = self.nodes.len() as u32;
+        if let Some(c) = children.into_iter().flatten().find(|&c| c >= id) {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                format!("node {id} names child {c}, which is not written"),
+            ));
+        }
         let points_offset = self.offset;
         self.out.write_all(bytemuck::cast_slice(splats))?;
         self.offset += std::mem::size_of_val(splats) as u64;
@@ -191,92 +197,67 @@ pub struct PendingNode {
     pub stats: NodeStats,
 }
 
-/// A [`StoreWriter`] on a thread of its own. Nodes get their ids before they are made
-/// ([`NodeSink::reserve`]: a subtree's ids follow from its sample count), are sent from any
-/// thread in any order as they are made ([`NodeSender`]), and are written in id order, while
-/// the builder goes on. Writing a big store is throttled by the kernel's write-back (4.6 s of a
-/// 50 M build), which would otherwise leave the other core idle. The builder bounds memory by
-/// waiting for the writer ([`NodeSink::wait_written`]): a region's nodes are written while the
-/// next region is built, not later.
+/// A [`StoreWriter`] shared by the threads that build nodes. Nodes get their ids before they
+/// are made ([`NodeSink::reserve`]: a subtree's ids follow from its sample count), are sent from
+/// any thread in any order as they are made ([`NodeSender`]), and are written in id order: a
+/// node waits in memory only for the nodes of lower ids still being built. (A thread of its own
+/// for the writer gained 1–2 % side by side: docs/performance.md, speed devices.)
 pub struct NodeSink {
     next_id: u32,
-    tx: Option<std::sync::mpsc::Sender<(u32, PendingNode)>>,
-    written: std::sync::Arc<Written>,
-    thread: Option<std::thread::JoinHandle<std::io::Result<StoreWriter>>>,
+    queue: std::sync::Arc<std::sync::Mutex<Queue>>,
 }
 
-/// How far the writer got: every node below `.0` is written; `.1` once it stopped.
-#[derive(Default)]
-struct Written {
-    state: std::sync::Mutex<(u32, bool)>,
-    changed: std::sync::Condvar,
+/// The writer, the nodes that came before the ones below them, and the first error.
+struct Queue {
+    writer: StoreWriter,
+    waiting: std::collections::BTreeMap<u32, PendingNode>,
+    failed: Option<std::io::Error>,
 }
 
-impl Written {
-    fn lock(&self) -> std::sync::MutexGuard<'_, (u32, bool)> {
-        self.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+impl Queue {
+    /// Takes node `id` and writes every node it completes the run of; after an error, nothing.
+    fn take(&mut self, id: u32, node: PendingNode) {
+        if self.failed.is_some() {
+            return;
+        }
+        self.waiting.insert(id, node);
+        while let Some(n) = self.waiting.remove(&self.writer.node_count()) {
+            if let Err(e) = self.writer.add_node(&n.splats, &n.boxes, n.children, n.stats) {
+                self.failed = Some(e);
+                self.waiting.clear();
+                return;
+            }
+        }
     }
 
-    fn set(&self, f: impl FnOnce(&mut (u32, bool))) {
-        f(&mut self.lock());
-        self.changed.notify_all();
+    /// The first error, again (an error cannot be cloned: its kind and text).
+    fn failure(&self) -> Option<std::io::Error> {
+        self.failed.as_ref().map(|e| std::io::Error::new(e.kind(), e.to_string()))
     }
 }
 
-/// Sends nodes with reserved ids to a [`NodeSink`]'s writer, from any thread.
+fn lock(queue: &std::sync::Mutex<Queue>) -> std::sync::MutexGuard<'_, Queue> {
+    queue.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// Sends nodes with reserved ids to a [`NodeSink`], from any thread.
 #[derive(Clone)]
-pub struct NodeSender(std::sync::mpsc::Sender<(u32, PendingNode)>);
+pub struct NodeSender(std::sync::Arc<std::sync::Mutex<Queue>>);
 
 impl NodeSender {
-    /// Sends node `id` (reserved). A writer that stopped takes nothing: its error comes from
-    /// [`NodeSink::wait_written`] or [`NodeSink::finish`].
+    /// Sends node `id` (reserved). After a write failed, nodes are dropped: the error comes from
+    /// [`NodeSink::sender`], [`NodeSink::send`] or [`NodeSink::finish`].
     pub fn send(&self, id: u32, node: PendingNode) {
-        let _ = self.0.send((id, node));
+        lock(&self.0).take(id, node);
     }
 }
 
 impl NodeSink {
-    /// Starts the writing thread.
-    pub fn start(mut writer: StoreWriter) -> std::io::Result<Self> {
+    /// Starts with `writer`.
+    pub fn start(writer: StoreWriter) -> Self {
         let next_id = writer.node_count();
-        let (tx, rx) = std::sync::mpsc::channel::<(u32, PendingNode)>();
-        let written = std::sync::Arc::new(Written {
-            state: std::sync::Mutex::new((next_id, false)),
-            ..Default::default()
-        });
-        let progress = written.clone();
-        let thread = std::thread::Builder::new().name("store writer".into()).spawn(move || {
-            // Marks the writer stopped however it ends (a panic too), so that nobody waits on.
-            struct Stopped(std::sync::Arc<Written>);
-            impl Drop for Stopped {
-                fn drop(&mut self) {
-                    self.0.set(|s| s.1 = true);
-                }
-            }
-            let _stopped = Stopped(progress.clone());
-            (|| {
-                // Nodes that came before the ones below them.
-                let mut waiting = std::collections::BTreeMap::new();
-                for (id, node) in rx {
-                    waiting.insert(id, node);
-                    let first = writer.node_count();
-                    while let Some(n) = waiting.remove(&writer.node_count()) {
-                        writer.add_node(&n.splats, &n.boxes, n.children, n.stats)?;
-                    }
-                    if writer.node_count() > first {
-                        progress.set(|s| s.0 = writer.node_count());
-                    }
-                }
-                if let Some(&id) = waiting.keys().next() {
-                    return Err(std::io::Error::other(format!(
-                        "node {id} came without the nodes before it (the next to write is {})",
-                        writer.node_count()
-                    )));
-                }
-                Ok(writer)
-            })()
-        })?;
-        Ok(Self { next_id, tx: Some(tx), written, thread: Some(thread) })
+        let queue = Queue { writer, waiting: Default::default(), failed: None };
+        Self { next_id, queue: std::sync::Arc::new(std::sync::Mutex::new(queue)) }
     }
 
     /// Id the next node reserved will have.
@@ -290,12 +271,11 @@ impl NodeSink {
         self.next_id - n
     }
 
-    /// A sender of nodes with reserved ids; the writer's error once it stopped.
+    /// A sender of nodes with reserved ids; the error of a write that failed.
     pub fn sender(&mut self) -> std::io::Result<NodeSender> {
-        let stopped = self.written.lock().1;
-        match &self.tx {
-            Some(tx) if !stopped => Ok(NodeSender(tx.clone())),
-            _ => Err(self.stopped()),
+        match lock(&self.queue).failure() {
+            Some(e) => Err(e),
+            None => Ok(NodeSender(self.queue.clone())),
         }
     }
 
@@ -307,47 +287,28 @@ impl NodeSink {
         Ok(id)
     }
 
-    /// Waits until every node below `id` is written; the writer's error if it stopped before.
-    pub fn wait_written(&mut self, id: u32) -> std::io::Result<()> {
-        let mut state = self.written.lock();
-        while state.0 < id && !state.1 {
-            state = self.written.changed.wait(state).unwrap_or_else(std::sync::PoisonError::into_inner);
+    /// The writer, once every node reserved is written (senders must be gone).
+    pub fn finish(self) -> std::io::Result<StoreWriter> {
+        let queue = std::sync::Arc::into_inner(self.queue)
+            .ok_or_else(|| std::io::Error::other("a node sender outlived the build"))?
+            .into_inner()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some(e) = queue.failed {
+            return Err(e);
         }
-        if state.0 >= id {
-            return Ok(());
+        let next = queue.writer.node_count();
+        if let Some(id) = queue.waiting.keys().next() {
+            return Err(std::io::Error::other(format!(
+                "node {id} came without the nodes before it (the next to write is {next})"
+            )));
         }
-        drop(state);
-        Err(self.stopped())
-    }
-
-    /// Why the writer stopped (its error), once it did.
-    fn stopped(&mut self) -> std::io::Error {
-        self.join().err().unwrap_or_else(|| std::io::Error::other("the store writer stopped"))
-    }
-
-    /// Waits for every node to be written and returns the writer.
-    pub fn finish(mut self) -> std::io::Result<StoreWriter> {
-        // Without its channel the writer stops once every sender is gone, written or not.
-        self.tx = None;
-        let id = self.next_id;
-        self.wait_written(id)?;
-        self.join()
-    }
-
-    fn join(&mut self) -> std::io::Result<StoreWriter> {
-        self.tx = None;
-        match self.thread.take().map(std::thread::JoinHandle::join) {
-            Some(Ok(result)) => result,
-            Some(Err(_)) => Err(std::io::Error::other("the store writer panicked")),
-            None => Err(std::io::Error::other("the store writer stopped")),
+        if next < self.next_id {
+            return Err(std::io::Error::other(format!(
+                "nodes {next} to {} were reserved, never sent",
+                self.next_id - 1
+            )));
         }
-    }
-}
-
-impl Drop for NodeSink {
-    fn drop(&mut self) {
-        // A build that failed: the writer is dropped with its partial file.
-        let _ = self.join();
+        Ok(queue.writer)
     }
 }
 
@@ -368,7 +329,7 @@ mod tests {
     /// The store of two leaves and their parent, sent in `order` of ids.
     fn store(dir: &Path, name: &str, order: [u32; 3]) -> std::io::Result<Vec<u8>> {
         let path = dir.join(name);
-        let mut sink = NodeSink::start(StoreWriter::create(&path)?)?;
+        let mut sink = NodeSink::start(StoreWriter::create(&path)?);
         let base = sink.reserve(3);
         let sender = sink.sender()?;
         for id in order {
@@ -389,22 +350,23 @@ mod tests {
     }
 
     #[test]
-    fn a_writer_that_panics_is_an_error_not_a_hang() {
+    fn a_node_whose_children_are_not_written_is_an_error() {
         let dir = tempfile::tempdir().expect("temp dir");
-        let mut sink = NodeSink::start(StoreWriter::create(&dir.path().join("d.kstore")).expect("created"))
-            .expect("started");
-        // Children that do not exist: the writer panics on them.
+        let path = dir.path().join("d.kstore");
+        let mut sink = NodeSink::start(StoreWriter::create(&path).expect("created"));
         let base = sink.reserve(2);
         sink.sender().expect("sender").send(base, node(0, Some([98, 99])));
-        let e = sink.wait_written(base + 1).expect_err("the writer stopped");
-        assert_eq!(e.to_string(), "the store writer panicked");
+        let e = sink.sender().err().expect("the write failed");
+        assert_eq!(e.to_string(), "node 0 names child 98, which is not written");
+        assert!(sink.finish().is_err());
+        assert!(!path.exists());
     }
 
     #[test]
     fn a_reserved_node_never_sent_is_an_error_not_a_hang() {
         let dir = tempfile::tempdir().expect("temp dir");
         let path = dir.path().join("c.kstore");
-        let mut sink = NodeSink::start(StoreWriter::create(&path).expect("created")).expect("started");
+        let mut sink = NodeSink::start(StoreWriter::create(&path).expect("created"));
         let base = sink.reserve(2);
         sink.sender().expect("sender").send(base + 1, node(1, None));
         let e = sink.finish().err().expect("node 0 is missing");

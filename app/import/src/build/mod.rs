@@ -5,7 +5,7 @@
 //!    themselves in memory up to `chunk_points`. When the input outgrows that, a kd-tree chosen
 //!    on a seeded random sample of those samples splits space into cells of about
 //!    1/32 of half a chunk (as the input seen so far is spread), and from then on every sample
-//!    goes straight to its cell's temporary file (written by a thread of its own).
+//!    goes straight to its cell's temporary file.
 //! 2. [`Builder::finish`] chooses the model origin (the centre of the bounding box, in `f64`) and
 //!    makes a region of every maximal subtree of cells holding at most half a chunk in all. A
 //!    cell that alone holds more (the input seen first did not show where the rest would go: a
@@ -25,8 +25,8 @@
 //! and the subtree is cut from it without moving a sample again. Simplification (bettio09 §3,
 //! balsa12 §4) collapses nearest pairs with compatible normals, shortest first; pairs longer than
 //! a few splat radii are merged only where short pairs run out above M, so an isolated sample is
-//! not merged into a disc as large as the gap. The store is written by a thread of its own while
-//! the next region is built ([`crate::writer`]). A region's buffers are kept for the next one
+//! not merged into a disc as large as the gap. Each node is written to the store as soon as the
+//! nodes before it are ([`crate::writer`]); regions are read one at a time. A region's buffers are kept for the next one
 //! (fresh pages cost a fault and a zeroed page per 4 KiB); a build that fits in one region frees
 //! its input samples as soon as they are taken, so that the nodes reuse those pages.
 //!
@@ -49,7 +49,7 @@ mod simplify;
 mod spill;
 
 use region::{Ctx, Regions, Scratch};
-use spill::{CELLS_PER_REGION, Cell, CellWriter, Plan, Reservoir, TopTree, read_region};
+use spill::{CELLS_PER_REGION, Cell, CellWriter, Plan, Reservoir, TopTree};
 
 /// Settings of the builder.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -174,7 +174,7 @@ pub enum Stage {
 enum Spill {
     /// The samples as pushed (a mesh's vertices are taken over whole, see [`Builder::push_all`]).
     Memory(Vec<InputPoint>),
-    Cells(CellWriter<InputPoint>),
+    Cells(CellWriter),
 }
 
 /// The builder.
@@ -224,7 +224,7 @@ impl Builder {
                     self.start_cells()?;
                 }
             }
-            Spill::Cells(w) => w.push(p)?,
+            Spill::Cells(w) => w.push(&p)?,
         }
         Ok(())
     }
@@ -241,7 +241,10 @@ impl Builder {
         first.iter().for_each(|p| reservoir.offer(p.pos));
         let cell = (self.params.chunk_points / 2 / CELLS_PER_REGION).max(1);
         let tree = TopTree::build(&reservoir.sample, self.count, cell);
-        self.spill = Spill::Cells(CellWriter::start(&self.tmp_dir, tree, first)?);
+        let mut cells = CellWriter::start(&self.tmp_dir, tree)?;
+        first.iter().try_for_each(|p| cells.push(p))?;
+        drop(first);
+        self.spill = Spill::Cells(cells);
         Ok(())
     }
 
@@ -275,9 +278,7 @@ impl Builder {
                     rest = later;
                 }
                 Spill::Cells(w) => {
-                    for &p in rest {
-                        w.push(p)?;
-                    }
+                    rest.iter().try_for_each(|p| w.push(p))?;
                     self.count_all(rest)?;
                     rest = &[];
                 }
@@ -365,7 +366,7 @@ impl Builder {
             // they are used, so that the nodes and the writer's queue take their pages instead
             // of fresh ones (the peak memory of the build, not only of the region).
             keep_scratch: matches!(self.spill, Spill::Cells(_)),
-            sink: NodeSink::start(StoreWriter::create(out)?)?,
+            sink: NodeSink::start(StoreWriter::create(out)?),
             done: 0,
             total: self.count,
             progress,
@@ -389,24 +390,10 @@ impl Builder {
                 let chunks = regions.len();
                 ctx.timings.distribute += lap(&mut clock);
                 (ctx.progress)(Stage::Build(0, ctx.total));
-                // A reader thread loads the next region while this one is processed (one region
-                // ahead: memory stays bounded); each cell file is deleted once read.
-                // Region buffers go back to the reader once processed: fresh pages for every
-                // region (≈ 100 MB each) would cost a page fault and a zeroed page per 4 KiB.
-                let root = std::thread::scope(|scope| {
-                    let (tx, rx) = std::sync::mpsc::sync_channel(1);
-                    let (back_tx, back_rx) = std::sync::mpsc::channel();
-                    scope.spawn(move || {
-                        for files in regions {
-                            let recs = read_region(&files, back_rx.try_recv().unwrap_or_default());
-                            drop(files);
-                            if tx.send(recs).is_err() {
-                                break;
-                            }
-                        }
-                    });
-                    ctx.top(&plan, &Regions { next: rx, back: back_tx }, origin)
-                })?;
+                // Each region is read when its turn comes (each cell file is deleted once read),
+                // into the buffer of the region before.
+                let mut regions = Regions::new(regions);
+                let root = ctx.top(&plan, &mut regions, origin)?;
                 (root.ok_or_else(|| BuildError::Degenerate("no samples reached any region".into()))?, chunks)
             }
         };

@@ -7,7 +7,7 @@
 //! made; the builder gets the root.
 
 use super::simplify::simplify;
-use super::spill::{Plan, RawRec, Record};
+use super::spill::{Cell, Plan, RawRec, Record, read_region};
 use super::{BuildError, BuildParams, Stage, Timings, lap};
 use crate::estimate::{self, Estimate};
 use crate::writer::{NodeSink, NodeStats, PendingNode};
@@ -39,11 +39,25 @@ pub(super) struct Sub {
     spacing: f32,
 }
 
-/// The regions of an out-of-core build as the reader thread delivers them, and the way back for
-/// their buffers.
+/// The regions of an out-of-core build, read one by one in the plan's order, each into the
+/// buffer of the one before (fresh pages for every region, ≈ 100 MB each, would cost a page
+/// fault and a zeroed page per 4 KiB).
 pub(super) struct Regions {
-    pub(super) next: std::sync::mpsc::Receiver<std::io::Result<Vec<RawRec>>>,
-    pub(super) back: std::sync::mpsc::Sender<Vec<RawRec>>,
+    files: std::vec::IntoIter<Vec<Cell>>,
+    buffer: Vec<RawRec>,
+}
+
+impl Regions {
+    pub(super) fn new(files: Vec<Vec<Cell>>) -> Self {
+        Self { files: files.into_iter(), buffer: Vec::new() }
+    }
+
+    /// The samples of the next region (its cell files are deleted once read).
+    fn next(&mut self) -> std::io::Result<Vec<RawRec>> {
+        let files =
+            self.files.next().ok_or_else(|| std::io::Error::other("the plan has more regions than cells"))?;
+        read_region(&files, std::mem::take(&mut self.buffer))
+    }
 }
 
 /// What a sample of a region brings besides its position: as read, zero where unknown.
@@ -92,23 +106,18 @@ impl Ctx<'_> {
     pub(super) fn top(
         &mut self,
         plan: &Plan,
-        regions: &Regions,
+        regions: &mut Regions,
         origin: DVec3,
     ) -> Result<Option<Sub>, BuildError> {
         match plan {
             Plan::Region => {
-                let recs =
-                    regions.next.recv().map_err(|_| std::io::Error::other("the region reader stopped"))??;
-                // The buffer goes back to the reader as soon as the region has taken its
-                // samples; the reader may have finished: then it is simply freed.
-                let back = |recs| {
-                    let _ = regions.back.send(recs);
-                };
+                let recs = regions.next()?;
                 if recs.is_empty() {
-                    back(recs);
+                    regions.buffer = recs;
                     return Ok(None);
                 }
-                self.region(recs, origin, back).map(Some)
+                // The buffer is kept for the next region as soon as this one has taken its samples.
+                self.region(recs, origin, |recs| regions.buffer = recs).map(Some)
             }
             Plan::Split(children) => {
                 let l = self.top(&children[0], regions, origin)?;
@@ -242,13 +251,10 @@ impl Ctx<'_> {
     /// node to the writer as it is made: ids in post order, known from the sample counts, so
     /// that stores are identical whatever the scheduling.
     fn split(&mut self, work: &mut [Work], h2: &mut [f32]) -> Result<Sub, BuildError> {
-        let before = self.sink.next_id();
         let base = self.sink.reserve(subtree_nodes(work.len(), self.params.node_points));
         let sender = self.sink.sender()?;
         let built = build_subtree(work, h2, &self.params, base, &|id, node| sender.send(id, node.into()));
-        // The nodes of the regions before this one are written before the next is built: at
-        // most this region's nodes wait in memory.
-        self.sink.wait_written(before)?;
+        drop(sender);
         self.done += work.len() as u64;
         (self.progress)(Stage::Build(self.done, self.total));
         Ok(Sub { id: built.id, samples: built.samples, spacing: built.spacing })

@@ -1,7 +1,6 @@
 //! Stage 1, spilling, and the partition of stage 2: once the input outgrows memory, every sample
 //! goes to the temporary file of its cell, a leaf of a kd-tree ([`TopTree`]) chosen on a seeded
-//! random sample ([`Reservoir`]) of the samples seen so far; a thread of its own
-//! ([`CellWriter`]) writes the cells while the input is read. At the end, [`Plan::new`]
+//! random sample ([`Reservoir`]) of the samples seen so far ([`CellWriter`]). At the end, [`Plan::new`]
 //! partitions the cells into regions of at most half a chunk (a cell that outgrew that is split
 //! again, its samples distributed to new cells by [`distribute`]). The region stage gets the
 //! plan, which says how the regions join, and reads each region's samples back in the plan's
@@ -77,20 +76,19 @@ impl Record for RawRec {
     }
 }
 
-/// Samples per batch handed to the cell writer.
-const SPILL_BATCH: usize = 1 << 16;
+/// Samples read from a cell file at a time.
+const READ_BATCH: usize = 1 << 16;
 
 /// Cells per expected region when the input first outgrows memory: regions are later made of
 /// whole subtrees of cells, so a region can be as small as half a chunk's worth / this.
 pub(super) const CELLS_PER_REGION: usize = 32;
 
 /// Sorts samples into the cell files of a kd-tree (chosen on the samples seen when memory ran
-/// out) on a thread of its own, so that reading the input and writing the cells overlap.
-/// Batches queue up to a few (memory stays bounded).
-pub(super) struct CellWriter<R> {
-    batch: Vec<R>,
-    tx: Option<std::sync::mpsc::SyncSender<Vec<R>>>,
-    thread: Option<std::thread::JoinHandle<std::io::Result<Cells>>>,
+/// out), each through a buffer of its own. (A thread of its own for this work gained under 3 %
+/// side by side: docs/performance.md, speed devices.)
+pub(super) struct CellWriter {
+    tree: TopTree,
+    cells: Vec<(BufWriter<tempfile::NamedTempFile>, u64)>,
 }
 
 /// A kd-tree and its cells (one per leaf, in order).
@@ -102,66 +100,35 @@ pub(super) struct Cell {
     count: u64,
 }
 
-impl<R: Record> CellWriter<R> {
-    /// Starts the cells of `tree` with `first`.
-    pub(super) fn start(tmp_dir: &Path, tree: TopTree, first: Vec<R>) -> std::io::Result<Self> {
+impl CellWriter {
+    /// Starts the (empty) cells of `tree`.
+    pub(super) fn start(tmp_dir: &Path, tree: TopTree) -> std::io::Result<Self> {
         let mut cells = Vec::with_capacity(tree.leaves());
         for _ in 0..tree.leaves() {
             cells.push((BufWriter::with_capacity(1 << 16, tempfile::NamedTempFile::new_in(tmp_dir)?), 0u64));
         }
-        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<R>>(4);
-        let thread = std::thread::Builder::new().name("cells".into()).spawn(move || {
-            for batch in rx {
-                for rec in &batch {
-                    let (w, count) = &mut cells[tree.locate(rec.position())];
-                    w.write_all(bytemuck::bytes_of(&rec.spilled()))?;
-                    *count += 1;
-                }
-            }
-            let cells = cells
-                .into_iter()
-                .map(|(w, count)| {
-                    Ok(Cell { file: w.into_inner().map_err(std::io::IntoInnerError::into_error)?, count })
-                })
-                .collect::<std::io::Result<_>>()?;
-            Ok((tree, cells))
-        })?;
-        let mut w = Self { batch: Vec::with_capacity(SPILL_BATCH), tx: Some(tx), thread: Some(thread) };
-        w.send(first)?;
-        Ok(w)
+        Ok(Self { tree, cells })
     }
 
-    pub(super) fn push(&mut self, r: R) -> std::io::Result<()> {
-        self.batch.push(r);
-        if self.batch.len() >= SPILL_BATCH {
-            let batch = std::mem::replace(&mut self.batch, Vec::with_capacity(SPILL_BATCH));
-            self.send(batch)?;
-        }
+    /// Writes `r` to its cell.
+    #[inline]
+    pub(super) fn push<R: Record>(&mut self, r: &R) -> std::io::Result<()> {
+        let (w, count) = &mut self.cells[self.tree.locate(r.position())];
+        w.write_all(bytemuck::bytes_of(&r.spilled()))?;
+        *count += 1;
         Ok(())
     }
 
-    fn send(&mut self, batch: Vec<R>) -> std::io::Result<()> {
-        match &self.tx {
-            Some(tx) if tx.send(batch).is_ok() => Ok(()),
-            // The thread stopped: its error says why.
-            _ => Err(self.join().err().unwrap_or_else(|| std::io::Error::other("the cell writer stopped"))),
-        }
-    }
-
-    fn join(&mut self) -> std::io::Result<Cells> {
-        self.tx = None;
-        match self.thread.take().map(std::thread::JoinHandle::join) {
-            Some(Ok(result)) => result,
-            Some(Err(_)) => Err(std::io::Error::other("the cell writer panicked")),
-            None => Err(std::io::Error::other("the cell writer stopped")),
-        }
-    }
-
-    /// Writes what is left and returns the tree and its cells.
-    pub(super) fn finish(mut self) -> std::io::Result<Cells> {
-        let batch = std::mem::take(&mut self.batch);
-        self.send(batch)?;
-        self.join()
+    /// Flushes the cells and returns the tree and its cells.
+    pub(super) fn finish(self) -> std::io::Result<Cells> {
+        let cells = self
+            .cells
+            .into_iter()
+            .map(|(w, count)| {
+                Ok(Cell { file: w.into_inner().map_err(std::io::IntoInnerError::into_error)?, count })
+            })
+            .collect::<std::io::Result<_>>()?;
+        Ok((self.tree, cells))
     }
 }
 
@@ -302,17 +269,16 @@ impl Reservoir {
 }
 
 /// Calls `f` with the samples of the file `path`, a batch at a time.
-fn for_each_batch(path: &Path, mut f: impl FnMut(Vec<RawRec>) -> std::io::Result<()>) -> std::io::Result<()> {
+fn for_each_batch(path: &Path, mut f: impl FnMut(&[RawRec]) -> std::io::Result<()>) -> std::io::Result<()> {
     let mut file = File::open(path)?;
+    let mut buf = vec![RawRec::zeroed(); READ_BATCH];
     loop {
-        let mut buf = vec![RawRec::zeroed(); SPILL_BATCH];
         let got =
             crate::read_full(&mut file, bytemuck::cast_slice_mut(&mut buf))? / std::mem::size_of::<RawRec>();
         if got == 0 {
             return Ok(());
         }
-        buf.truncate(got);
-        f(buf)?;
+        f(&buf[..got])?;
     }
 }
 
@@ -327,7 +293,7 @@ fn sample_file(path: &Path, size: usize, seed: u64) -> std::io::Result<Vec<DVec3
 }
 
 /// Distributes the samples of the file `input` (`total` of them) to new cells, one per leaf of
-/// `top`: this thread reads while the cell writer's thread sorts.
+/// `top`.
 fn distribute(
     input: &Path,
     top: TopTree,
@@ -335,11 +301,11 @@ fn distribute(
     tmp_dir: &Path,
     progress: &mut dyn FnMut(Stage),
 ) -> Result<Cells, BuildError> {
-    let mut writer = CellWriter::start(tmp_dir, top, Vec::new())?;
+    let mut writer = CellWriter::start(tmp_dir, top)?;
     let mut done = 0u64;
     for_each_batch(input, |batch| {
         done += batch.len() as u64;
-        writer.send(batch)?;
+        batch.iter().try_for_each(|r| writer.push(r))?;
         progress(Stage::Distribute(done, total));
         Ok(())
     })?;
