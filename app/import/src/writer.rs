@@ -260,11 +260,6 @@ impl NodeSink {
         Self { next_id, queue: std::sync::Arc::new(std::sync::Mutex::new(queue)) }
     }
 
-    /// Id the next node reserved will have.
-    pub fn next_id(&self) -> u32 {
-        self.next_id
-    }
-
     /// Reserves the ids of `n` nodes; returns the first.
     pub fn reserve(&mut self, n: u32) -> u32 {
         self.next_id += n;
@@ -272,7 +267,7 @@ impl NodeSink {
     }
 
     /// A sender of nodes with reserved ids; the error of a write that failed.
-    pub fn sender(&mut self) -> std::io::Result<NodeSender> {
+    pub fn sender(&self) -> std::io::Result<NodeSender> {
         match lock(&self.queue).failure() {
             Some(e) => Err(e),
             None => Ok(NodeSender(self.queue.clone())),

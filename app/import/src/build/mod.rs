@@ -26,8 +26,8 @@
 //! balsa12 §4) collapses nearest pairs with compatible normals, shortest first; pairs longer than
 //! a few splat radii are merged only where short pairs run out above M, so an isolated sample is
 //! not merged into a disc as large as the gap. Each node is written to the store as soon as the
-//! nodes before it are ([`crate::writer`]); regions are read one at a time. A region's buffers are kept for the next one
-//! (fresh pages cost a fault and a zeroed page per 4 KiB); a build that fits in one region frees
+//! nodes before it are ([`crate::writer`]); regions are read one at a time. A region's buffers are
+//! kept for the next one (fresh pages cost a fault and a zeroed page per 4 KiB); a build that fits in one region frees
 //! its input samples as soon as they are taken, so that the nodes reuse those pages.
 //!
 //! The stages are modules of their own, run in turn by [`Builder`]:
@@ -139,7 +139,8 @@ pub struct BuildSummary {
 /// Wall time of each stage of [`Builder::finish`], summed over regions.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Timings {
-    /// Closing the cell files and splitting cells that outgrew a region (out-of-core builds only).
+    /// Closing the cell files, splitting cells that outgrew a region and reading each region
+    /// back (out-of-core builds only).
     pub distribute: std::time::Duration,
     /// Merging duplicates.
     pub merge: std::time::Duration,
@@ -149,8 +150,8 @@ pub struct Timings {
     pub estimate: std::time::Duration,
     /// Leaves, simplification of inner nodes, writing them.
     pub nodes: std::time::Duration,
-    /// After the last node is made: the writer's last blocks, the index and header, the final
-    /// sync, the rename into place.
+    /// After the last node is written: the index and header, the final sync, the rename into
+    /// place.
     pub finish: std::time::Duration,
 }
 
@@ -400,7 +401,7 @@ impl Builder {
         let clock = std::time::Instant::now();
         let mut timings = ctx.timings;
         let largest_region = ctx.largest_region;
-        // Freed while the writer writes the last nodes, not after.
+        // Freed before the index is written.
         drop(std::mem::take(&mut ctx.scratch));
         let writer = ctx.sink.finish()?;
         let root = root.id;

@@ -77,8 +77,8 @@ fn known_spacing(h: f32) -> bool {
 
 /// The buffers of [`Ctx::region`], kept from one region to the next with the read buffer of
 /// [`Regions`]: fresh pages for every region (≈ 100 MB each) cost a page fault and a zeroed
-/// page per 4 KiB, and a 50 M-point build took 1.12 times as long without them (20 M: 1.08; a
-/// build of two regions: 1.02), for 65 MB less peak memory (docs/performance.md, speed devices).
+/// page per 4 KiB, and a 50 M-point build took 1.12 times as long without them (20 M: 1.08; 5 M:
+/// 1.02), at the cost of 65 MB more peak memory at 50 M (docs/performance.md, speed devices).
 #[derive(Default)]
 pub(super) struct Scratch {
     pts: Vec<(Vec3, Attrs)>,
@@ -113,7 +113,9 @@ impl Ctx<'_> {
     ) -> Result<Option<Sub>, BuildError> {
         match plan {
             Plan::Region => {
+                let clock = std::time::Instant::now();
                 let recs = regions.next()?;
+                self.timings.distribute += clock.elapsed();
                 if recs.is_empty() {
                     regions.buffer = recs;
                     return Ok(None);
@@ -257,6 +259,8 @@ impl Ctx<'_> {
         let sender = self.sink.sender()?;
         let built = build_subtree(work, h2, &self.params, base, &|id, node| sender.send(id, node.into()));
         drop(sender);
+        // A write that failed stops the build here rather than at the next node.
+        self.sink.sender()?;
         self.done += work.len() as u64;
         (self.progress)(Stage::Build(self.done, self.total));
         Ok(Sub { id: built.id, samples: built.samples, spacing: built.spacing })

@@ -1,10 +1,10 @@
 //! Stage 1, spilling, and the partition of stage 2: once the input outgrows memory, every sample
-//! goes to the temporary file of its cell, a leaf of a kd-tree ([`TopTree`]) chosen on a seeded
-//! random sample ([`Reservoir`]) of the samples seen so far ([`CellWriter`]). At the end, [`Plan::new`]
-//! partitions the cells into regions of at most half a chunk (a cell that outgrew that is split
-//! again, its samples distributed to new cells by [`distribute`]). The region stage gets the
-//! plan, which says how the regions join, and reads each region's samples back in the plan's
-//! order with [`read_region`].
+//! goes to the temporary file of its cell ([`CellWriter`]), a leaf of a kd-tree ([`TopTree`])
+//! chosen on a seeded random sample ([`Reservoir`]) of the samples seen so far. At the end,
+//! [`Plan::new`] partitions the cells into regions of at most half a chunk (a cell that outgrew
+//! that is split again, its samples distributed to new cells by [`distribute`]). The region stage
+//! gets the plan, which says how the regions join, and reads each region's samples back in the
+//! plan's order with [`read_region`].
 
 use super::{BuildError, BuildParams, Stage};
 use crate::source::InputPoint;
