@@ -624,15 +624,20 @@ fn a_snapshot_writes_png_or_jpeg_and_refuses_other_names_before_it_writes() {
     assert!(!o.status.success() && err.contains("name a .png or .jpg file"), "{err}");
     assert!(!out.exists());
     // Settings out of range are usage errors, as in kiosk.toml.
+    let never = dir.path().join("never.png");
     for (flag, value) in [("--edl", "-1"), ("--tolerance", "0")] {
         let o = std::process::Command::new(env!("CARGO_BIN_EXE_kiosk"))
             .args(["snapshot", "--exhibit"])
             .arg(&exhibit)
-            .args(["-o", "never.png", &format!("{flag}={value}")])
+            .arg("-o")
+            .arg(&never)
+            .arg(format!("{flag}={value}"))
+            .env("ISOKIOSK_CACHE", common::cache())
             .output()
             .expect("run kiosk");
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(o.status.code() == Some(2) && err.contains(flag), "{flag} {value}: {err}");
+        assert!(!never.exists());
     }
 }
 
