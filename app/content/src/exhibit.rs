@@ -10,6 +10,19 @@ use std::path::{Path, PathBuf};
 /// The endings of the scans an exhibit may hold instead of a store.
 const SCANS: [&str; 9] = [".ply", ".ply.gz", ".obj", ".obj.gz", ".glb", ".gltf", ".las", ".laz", ".e57"];
 
+/// The endings of the survey scans among [`SCANS`] (Z-up by default: [`default_up`]).
+const SURVEYS: [&str; 3] = [".las", ".laz", ".e57"];
+
+/// A file's name in lower case ("" without one).
+fn lower_name(p: &Path) -> String {
+    p.file_name().and_then(|n| n.to_str()).unwrap_or("").to_ascii_lowercase()
+}
+
+/// A file's modification time in nanoseconds since the epoch, where the system gives one.
+fn modified_nanos(meta: &std::fs::Metadata) -> Option<u128> {
+    Some(meta.modified().ok()?.duration_since(std::time::UNIX_EPOCH).ok()?.as_nanos())
+}
+
 /// Finds the model of an exhibit directory: its store if it has one (a store beside the scan it
 /// was made from comes first), else its scan. Two stores, or two scans and no store, are an error
 /// that names them: the kiosk would not know which to show.
@@ -19,7 +32,7 @@ pub fn model_file(dir: &Path) -> anyhow::Result<PathBuf> {
         .filter_map(|e| e.ok().map(|e| e.path()))
         .collect();
     entries.sort();
-    let name = |p: &PathBuf| p.file_name().and_then(|n| n.to_str()).unwrap_or("").to_ascii_lowercase();
+    let name = |p: &PathBuf| lower_name(p);
     // Hidden files (`._bust.obj`, left by macOS on a USB stick) are not models.
     let entries: Vec<&PathBuf> = entries.iter().filter(|p| !name(p).starts_with('.')).collect();
     let stores: Vec<&PathBuf> = entries.iter().copied().filter(|p| name(p).ends_with(".kstore")).collect();
@@ -104,8 +117,7 @@ impl Inputs {
     fn of(paths: &[PathBuf]) -> Self {
         let stamp = |p: &Path| {
             let meta = std::fs::metadata(p).ok()?;
-            let modified = meta.modified().ok()?.duration_since(std::time::UNIX_EPOCH).ok()?;
-            Some((meta.len(), modified.as_nanos()))
+            Some((meta.len(), modified_nanos(&meta)?))
         };
         Self(paths.iter().map(|p| (p.clone(), stamp(p))).collect())
     }
@@ -211,12 +223,11 @@ pub fn cache_dir() -> PathBuf {
 /// and the store format's version — a store made otherwise is not reused.
 fn cache_name(file: &Path, options: &ImportOptions, revision: u32) -> anyhow::Result<String> {
     let meta = std::fs::metadata(file).with_context(|| format!("cannot read {}", file.display()))?;
-    let modified = meta.modified().ok().and_then(|m| m.duration_since(std::time::UNIX_EPOCH).ok());
     let key = format!(
         "{}-{}-{}-{:?}-{:?}-{revision}-{}",
         file.display(),
         meta.len(),
-        modified.map_or(0, |d| d.as_nanos()),
+        modified_nanos(&meta).unwrap_or(0),
         options.build,
         options.read,
         kiosk_core::scene::store::VERSION
@@ -229,7 +240,8 @@ fn cache_name(file: &Path, options: &ImportOptions, revision: u32) -> anyhow::Re
 /// How an exhibit's model stands, from `exhibit.toml` beside it:
 ///
 /// ```toml
-/// up = "z"          # its up axis: x, y, z, -x, -y or -z (default y), or [x, y, z]
+/// up = "z"          # its up axis: x, y, z, -x, -y or -z, or [x, y, z] (default z for LAS,
+///                   # LAZ and E57 scans, else y)
 /// front = "-y"      # the side the kiosk's start view looks at: an axis or [x, y, z]
 /// ```
 ///
@@ -407,10 +419,7 @@ fn scaled(v: glam::DVec3) -> glam::DVec3 {
 /// E57: their Z is the height, by their specifications and in practice), +Y for the rest (glTF's
 /// own convention, and most mesh exports).
 fn default_up(dir: &Path) -> glam::DVec3 {
-    let survey = |p: PathBuf| {
-        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("").to_ascii_lowercase();
-        [".las", ".laz", ".e57"].iter().any(|e| name.ends_with(e))
-    };
+    let survey = |p: PathBuf| SURVEYS.iter().any(|e| lower_name(&p).ends_with(e));
     if model_file(dir).is_ok_and(survey) { glam::DVec3::Z } else { glam::DVec3::Y }
 }
 

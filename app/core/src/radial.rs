@@ -145,15 +145,7 @@ pub fn radial_candidates(
     for (order, &i) in passed.iter().enumerate() {
         let node = &graph.nodes[i];
         let own = Projector::new(&node.view);
-        let through_p = own.with_inv_tan(frame.cur.inv_tan);
-        let (mut sum, mut n) = (0.0, 0usize);
-        for (&s, cur) in ctx.samples.iter().zip(&frame.cur_ndc) {
-            if let (Some(a), Some(b)) = (through_p.ndc(s, ctx.aspect), cur) {
-                sum += (a - *b).length();
-                n += 1;
-            }
-        }
-        if n == 0 || sum / n as f64 > settings.max_ndc_distance {
+        if frame.mean_ndc_distance(&own).is_none_or(|d| d > settings.max_ndc_distance) {
             continue;
         }
         let close = frame.close(&own, node, settings.min_roi_samples).filter(|&s| s > 0.0);

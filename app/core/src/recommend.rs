@@ -250,7 +250,7 @@ pub struct Projector {
     right: DVec3,
     up: DVec3,
     forward: DVec3,
-    pub(crate) inv_tan: f64,
+    inv_tan: f64,
 }
 
 impl Projector {
@@ -269,7 +269,7 @@ impl Projector {
 
     /// The same view seen with another projection (`inv_tan` = 1 / tan(fov_y / 2)).
     #[inline]
-    pub(crate) fn with_inv_tan(self, inv_tan: f64) -> Self {
+    fn with_inv_tan(self, inv_tan: f64) -> Self {
         Self { inv_tan, ..self }
     }
 
@@ -295,8 +295,8 @@ impl Projector {
 /// current view and the centre of the visible samples (the radial selector ranks with it too).
 pub(crate) struct StepFrame<'a> {
     ctx: &'a ViewContext<'a>,
-    pub(crate) cur: Projector,
-    pub(crate) cur_ndc: Vec<Option<DVec2>>,
+    cur: Projector,
+    cur_ndc: Vec<Option<DVec2>>,
     t_cur: DVec3,
 }
 
@@ -313,6 +313,21 @@ impl<'a> StepFrame<'a> {
         }
         let t_cur = if n == 0 { ctx.camera.target } else { sum / n as f64 };
         Self { ctx, cur, cur_ndc, t_cur }
+    }
+
+    /// The mean NDC distance between the samples seen through `own` (a node's view) with the
+    /// current projection and the same samples in the current view, over the samples both see;
+    /// `None` when none is.
+    pub(crate) fn mean_ndc_distance(&self, own: &Projector) -> Option<f64> {
+        let through_p = own.with_inv_tan(self.cur.inv_tan);
+        let (mut sum, mut n) = (0.0, 0usize);
+        for (&s, cur) in self.ctx.samples.iter().zip(&self.cur_ndc) {
+            if let (Some(a), Some(b)) = (through_p.ndc(s, self.ctx.aspect), cur) {
+                sum += (a - *b).length();
+                n += 1;
+            }
+        }
+        (n > 0).then(|| sum / n as f64)
     }
 
     /// Eq. 11.3 for a node seen through `own` (its view with its own field of view). The samples

@@ -266,12 +266,15 @@ impl NodeSink {
         self.next_id - n
     }
 
+    /// The error of a write that failed, if one did.
+    pub fn check(&self) -> std::io::Result<()> {
+        lock(&self.queue).failure().map_or(Ok(()), Err)
+    }
+
     /// A sender of nodes with reserved ids; the error of a write that failed.
     pub fn sender(&self) -> std::io::Result<NodeSender> {
-        match lock(&self.queue).failure() {
-            Some(e) => Err(e),
-            None => Ok(NodeSender(self.queue.clone())),
-        }
+        self.check()?;
+        Ok(NodeSender(self.queue.clone()))
     }
 
     /// Sends `node` with the next id, and returns it.

@@ -27,8 +27,9 @@
 //! a few splat radii are merged only where short pairs run out above M, so an isolated sample is
 //! not merged into a disc as large as the gap. Each node is written to the store as soon as the
 //! nodes before it are ([`crate::writer`]); regions are read one at a time. A region's buffers are
-//! kept for the next one (fresh pages cost a fault and a zeroed page per 4 KiB); a build that fits in one region frees
-//! its input samples as soon as they are taken, so that the nodes reuse those pages.
+//! kept for the next one (fresh pages cost a fault and a zeroed page per 4 KiB); a build that
+//! fits in one region frees its input samples as soon as they are taken, so that the nodes reuse
+//! those pages.
 //!
 //! The stages are modules of their own, run in turn by [`Builder`]:
 //! - `spill` (1, and the partition of the cells into regions of 2): the cell files, and the plan

@@ -260,7 +260,7 @@ impl Ctx<'_> {
         let built = build_subtree(work, h2, &self.params, base, &|id, node| sender.send(id, node.into()));
         drop(sender);
         // A write that failed stops the build here rather than at the next node.
-        self.sink.sender()?;
+        self.sink.check()?;
         self.done += work.len() as u64;
         (self.progress)(Stage::Build(self.done, self.total));
         Ok(Sub { id: built.id, samples: built.samples, spacing: built.spacing })
