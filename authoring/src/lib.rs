@@ -38,7 +38,7 @@ pub struct Project {
     /// loader could not read (see [`InfoGraph::to_xml_over`]).
     original: Option<String>,
     /// How the model stands: its up direction and the side the kiosk shows first (`exhibit.toml`;
-    /// +Y up and the default front without one).
+    /// without one, the default up of its scan: +Z for a survey scan, else +Y).
     pub pose: ModelPose,
 }
 
@@ -62,10 +62,11 @@ impl Project {
         };
         let (pose, up_problem) = match kiosk_content::exhibit::model_pose(dir) {
             Ok(pose) => (pose, None),
-            Err(e) => (
-                ModelPose::default(),
-                Some(Problem { node: None, msg: format!("{e:#}; +Y up used"), dropped: false }),
-            ),
+            Err(e) => {
+                let pose = kiosk_content::exhibit::default_pose(dir);
+                let msg = format!("{e:#}; {} up used", kiosk_content::exhibit::up_label(pose.up));
+                (pose, Some(Problem { node: None, msg, dropped: false }))
+            }
         };
         let (graph, mut problems) = match kiosk_content::exhibit::open_graph(dir)? {
             Some((g, p)) => (g, p),

@@ -207,7 +207,10 @@ fn a_curator_turns_the_model_upright_and_the_kiosk_reads_it() {
     std::fs::write(dir.path().join("exhibit.toml"), "up = \"diagonal\"\n").expect("write");
     let (broken, problems) = open(dir.path()).expect("opens all the same");
     assert_eq!(broken.pose.up, DVec3::Y);
-    assert!(problems.iter().any(|p| p.msg.contains("diagonal")), "{problems:?}");
+    assert!(
+        problems.iter().any(|p| p.msg.contains("diagonal") && p.msg.ends_with("+Y up used")),
+        "{problems:?}"
+    );
 }
 
 #[test]

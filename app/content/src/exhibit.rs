@@ -423,6 +423,21 @@ fn default_up(dir: &Path) -> glam::DVec3 {
     if model_file(dir).is_ok_and(survey) { glam::DVec3::Z } else { glam::DVec3::Y }
 }
 
+/// The pose a model is shown in when its `exhibit.toml` cannot be read (beside the error): the
+/// pose of one that does not say, [`default_up`] and no front.
+pub fn default_pose(dir: &Path) -> ModelPose {
+    ModelPose { up: default_up(dir), front: None }
+}
+
+/// The name of an up axis in messages: "+Z", "-Y"; other directions as vectors.
+pub fn up_label(up: glam::DVec3) -> String {
+    match named_axis(up) {
+        Some((name, _)) if name.starts_with('-') => name.to_uppercase(),
+        Some((name, _)) => format!("+{}", name.to_uppercase()),
+        None => format!("{up}"),
+    }
+}
+
 /// The up direction of an exhibit's model ([`model_pose`]'s `up`).
 pub fn model_up(dir: &Path) -> anyhow::Result<glam::DVec3> {
     Ok(model_pose(dir)?.up)
@@ -774,7 +789,14 @@ mod tests {
             assert_eq!(model_pose(&dir).expect("pose").up, up, "{name}");
             std::fs::write(dir.join("exhibit.toml"), "up = \"x\"\n").expect("toml");
             assert_eq!(model_pose(&dir).expect("pose").up, glam::DVec3::X, "{name}: stated");
+            // A broken exhibit.toml: the kiosk shows the scan as if it said nothing.
+            std::fs::write(dir.join("exhibit.toml"), "up = \"sideways\"\n").expect("toml");
+            assert!(model_pose(&dir).is_err(), "{name}: broken");
+            assert_eq!(default_pose(&dir), ModelPose { up, front: None }, "{name}: broken");
         }
+        assert_eq!(up_label(glam::DVec3::Z), "+Z");
+        assert_eq!(up_label(glam::DVec3::NEG_Y), "-Y");
+        assert_eq!(up_label(glam::DVec3::new(0.0, 0.6, 0.8)), "[0, 0.6, 0.8]");
     }
 
     #[test]

@@ -76,8 +76,12 @@ pub fn load_exhibits(config: &Config) -> anyhow::Result<Vec<Exhibit>> {
         let pose = match kiosk_content::exhibit::model_pose(&dir) {
             Ok(pose) => pose,
             Err(e) => {
-                tracing::error!("{e:#}; the model is shown with +Y up");
-                kiosk_content::exhibit::ModelPose::default()
+                let pose = kiosk_content::exhibit::default_pose(&dir);
+                tracing::error!(
+                    "{e:#}; the model is shown with {} up",
+                    kiosk_content::exhibit::up_label(pose.up)
+                );
+                pose
             }
         };
         tracing::info!("exhibit {}: {} samples", dir.display(), store.header().leaf_point_count);
