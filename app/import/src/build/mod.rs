@@ -244,7 +244,7 @@ impl Builder {
         let cell = (self.params.chunk_points / 2 / CELLS_PER_REGION).max(1);
         let tree = TopTree::build(&reservoir.sample, self.count, cell);
         let mut cells = CellWriter::start(&self.tmp_dir, tree)?;
-        first.iter().try_for_each(|p| cells.push(p))?;
+        cells.push_all(&first)?;
         drop(first);
         self.spill = Spill::Cells(cells);
         Ok(())
@@ -280,7 +280,7 @@ impl Builder {
                     rest = later;
                 }
                 Spill::Cells(w) => {
-                    rest.iter().try_for_each(|p| w.push(p))?;
+                    w.push_all(rest)?;
                     self.count_all(rest)?;
                     rest = &[];
                 }
