@@ -50,7 +50,7 @@ mod simplify;
 mod spill;
 
 use region::{Ctx, Regions, Scratch};
-use spill::{CELLS_PER_REGION, Cell, CellWriter, Plan, Reservoir, TopTree};
+use spill::{CELLS_PER_REGION, Cell, CellWriter, Plan, Selection, TopTree};
 
 /// Settings of the builder.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -239,10 +239,10 @@ impl Builder {
             return Ok(());
         };
         let first = std::mem::take(v);
-        let mut reservoir = Reservoir::new(self.params.sample_size, self.params.seed);
-        first.iter().for_each(|p| reservoir.offer(p.pos));
+        let mut selection = Selection::new(self.params.sample_size, first.len() as u64, self.params.seed);
+        first.iter().for_each(|p| selection.offer(p.pos));
         let cell = (self.params.chunk_points / 2 / CELLS_PER_REGION).max(1);
-        let tree = TopTree::build(&reservoir.sample, self.count, cell);
+        let tree = TopTree::build(&selection.sample, self.count, cell);
         let mut cells = CellWriter::start(&self.tmp_dir, tree)?;
         cells.push_all(&first)?;
         drop(first);
