@@ -139,7 +139,8 @@ impl CellWriter {
     /// its records' cells and groups them by cell, then every cell takes its groups, part after
     /// part. One by one, finding each record's cell and copying it into its buffer kept one
     /// core busy while the other waited: the reading of a 5 M-point LAS took 1.22 times as long
-    /// (the whole import 1.07; docs/performance.md, speed devices).
+    /// (the whole build 1.07; docs/performance.md, speed devices). After an error the cells are
+    /// unusable (some may hold more of the window than others): the build stops.
     pub(super) fn push_all<R: Record>(&mut self, recs: &[R]) -> std::io::Result<()> {
         let cells = self.cells.len();
         for window in recs.chunks(PUSH_WINDOW) {
@@ -302,7 +303,7 @@ impl Plan {
 /// they are fewer), kept in the order offered: each is taken with the probability that makes
 /// every subset of that size equally likely (selection sampling, Knuth's Algorithm S). A
 /// reservoir, which needs no total but replaces samples at random places of a sample of 24 MB,
-/// took a tenth of the reading of a 5 M-point cloud on one core.
+/// was an eighth of the CPU profile of the reading of a 5 M-point cloud, on one core.
 pub(super) struct Selection {
     pub(super) sample: Vec<DVec3>,
     wanted: usize,
