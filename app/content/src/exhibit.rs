@@ -260,12 +260,6 @@ pub struct ModelPose {
     pub front: Option<glam::DVec3>,
 }
 
-impl Default for ModelPose {
-    fn default() -> Self {
-        Self { up: glam::DVec3::Y, front: None }
-    }
-}
-
 impl ModelPose {
     /// `exhibit.toml`'s text for this pose (an axis by its name, another direction as a vector
     /// that reads back exactly).
