@@ -30,6 +30,7 @@
 
 use glam::{Mat3, Vec3};
 use kiosk_core::scene::boxtree::{self, PathStep};
+use rayon::prelude::*;
 
 /// Eigen-decomposition of a symmetric 3×3 matrix by cyclic Jacobi rotations: eigenvalues in
 /// ascending order with their unit eigenvectors.
@@ -192,7 +193,8 @@ pub fn estimate(
     let soa = Soa::new(positions);
     let search = LeafSearch { positions, soa: &soa, boxes, k: k + 1 };
     let job = Job { search, centroid, need_normal, need_spacing, stride: stride.max(1) };
-    let mut out = vec![Estimate { normal: Vec3::ZERO, spacing: 0.0 }; positions.len()];
+    let mut out = Vec::new();
+    out.par_extend(rayon::iter::repeat_n(Estimate { normal: Vec3::ZERO, spacing: 0.0 }, positions.len()));
     let root = PathStep::root(positions.len());
     job.descend(root, &mut Vec::with_capacity(64), &mut Scratch::default(), &mut out);
     Some(out)

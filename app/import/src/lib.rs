@@ -14,7 +14,7 @@ pub use build::{BuildError, BuildParams, BuildSummary, Builder, Stage};
 /// that makes different stores from the same input with the same settings, so that stores
 /// cached from a scan (the kiosk's exhibits) are built again by the new code (each bump's reason
 /// is in the history of this line).
-pub const BUILDER_REVISION: u32 = 7;
+pub const BUILDER_REVISION: u32 = 8;
 pub use formats::{ReadError, read_all, read_file};
 pub use source::{InputPoint, ReadOptions, ReadReport, Sink};
 

@@ -240,7 +240,7 @@ impl Builder {
         };
         let first = std::mem::take(v);
         let mut selection = Selection::new(self.params.sample_size, first.len() as u64, self.params.seed);
-        first.iter().for_each(|p| selection.offer(p.pos));
+        selection.take(&first, |p| p.pos);
         let cell = (self.params.chunk_points / 2 / CELLS_PER_REGION).max(1);
         let tree = TopTree::build(&selection.sample, self.count, cell);
         let mut cells = CellWriter::start(&self.tmp_dir, tree)?;
@@ -272,7 +272,8 @@ impl Builder {
                         // came with its own capacity).
                         v.reserve_exact(chunk + 1 - v.len());
                     }
-                    v.extend_from_slice(now);
+                    // On the pool: the copy, and the first touch of fresh pages.
+                    v.par_extend(now.par_iter().copied());
                     self.count_all(now)?;
                     if matches!(&self.spill, Spill::Memory(v) if v.len() > chunk) {
                         self.start_cells()?;

@@ -198,14 +198,16 @@ pub(super) enum TopTree {
 impl TopTree {
     pub(super) fn build(sample: &[DVec3], total: u64, max_expected: usize) -> Self {
         let mut s = sample.to_vec();
-        let mut next = 0;
-        Self::rec(&mut s, total as f64 / sample.len().max(1) as f64, max_expected as f64, &mut next)
+        let mut tree = Self::rec(&mut s, total as f64 / sample.len().max(1) as f64, max_expected as f64);
+        tree.number(&mut 0);
+        tree
     }
 
-    fn rec(s: &mut [DVec3], scale: f64, max_expected: f64, next: &mut usize) -> Self {
+    /// The tree over `s` (reordered), both halves of a large split chosen in parallel; its leaves
+    /// are numbered by [`TopTree::number`].
+    fn rec(s: &mut [DVec3], scale: f64, max_expected: f64) -> Self {
         if (s.len() as f64) * scale <= max_expected || s.len() < 2 {
-            *next += 1;
-            return Self::Leaf(*next - 1);
+            return Self::Leaf(0);
         }
         let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
         for p in s.iter() {
@@ -217,9 +219,23 @@ impl TopTree {
         s.select_nth_unstable_by(mid, |a, b| a[axis].total_cmp(&b[axis]));
         let at = s[mid][axis];
         let (l, r) = s.split_at_mut(mid);
-        let left = Self::rec(l, scale, max_expected, next);
-        let right = Self::rec(r, scale, max_expected, next);
+        let (left, right) = if mid >= 1 << 13 {
+            rayon::join(|| Self::rec(l, scale, max_expected), || Self::rec(r, scale, max_expected))
+        } else {
+            (Self::rec(l, scale, max_expected), Self::rec(r, scale, max_expected))
+        };
         Self::Split { axis, at, children: Box::new([left, right]) }
+    }
+
+    /// Numbers the leaves left to right from `next`.
+    fn number(&mut self, next: &mut usize) {
+        match self {
+            Self::Leaf(i) => {
+                *i = *next;
+                *next += 1;
+            }
+            Self::Split { children, .. } => children.iter_mut().for_each(|c| c.number(next)),
+        }
     }
 
     fn leaves(&self) -> usize {
@@ -299,38 +315,62 @@ impl Plan {
     }
 }
 
-/// A seeded random sample of `size` of the `total` positions offered in turn (all of them when
-/// they are fewer), kept in the order offered: each is taken with the probability that makes
-/// every subset of that size equally likely (selection sampling, Knuth's Algorithm S). A
-/// reservoir, which needs no total but replaces samples at random places of a sample of 24 MB,
-/// was an eighth of the CPU profile of the reading of a 5 M-point cloud, on one core.
+/// A seeded random sample of `size` of `total` samples (all of them when they are fewer), kept
+/// in their order: the indices are chosen first, every subset of that size equally likely (Floyd's
+/// algorithm: one random draw per index chosen, marked in a bitmap of `total` bits), then the
+/// samples are taken as they are offered in turn ([`Selection::offer`]) or straight from memory
+/// ([`Selection::take`]). Selection sampling (Knuth's Algorithm S), one draw per sample offered,
+/// took 85 ms of a single core for the 4 M samples of the first chunk; a reservoir before it,
+/// which replaces samples at random places of a sample of 24 MB, an eighth of the reading's
+/// profile.
 pub(super) struct Selection {
     pub(super) sample: Vec<DVec3>,
-    wanted: usize,
-    /// Positions still to be offered.
-    left: u64,
-    rng: rand_pcg::Pcg64,
+    /// Bit i set: the i-th sample is taken.
+    chosen: Vec<u64>,
+    total: u64,
+    /// Samples offered so far.
+    offered: u64,
 }
 
 impl Selection {
     pub(super) fn new(size: usize, total: u64, seed: u64) -> Self {
-        let wanted = (size as u64).min(total) as usize;
-        Self {
-            sample: Vec::with_capacity(wanted),
-            wanted,
-            left: total,
-            rng: rand_pcg::Pcg64::seed_from_u64(seed),
+        let wanted = (size as u64).min(total);
+        let mut chosen = vec![0u64; total.div_ceil(64) as usize];
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
+        let bit = |i: u64| (i / 64) as usize;
+        // Floyd: for each j of the last `wanted` indices, a random t ≤ j, or j itself when t is
+        // taken already; every subset of `wanted` indices comes out equally likely.
+        for j in total - wanted..total {
+            let t = rng.random_range(0..=j);
+            let i = if chosen[bit(t)] >> (t % 64) & 1 == 1 { j } else { t };
+            chosen[bit(i)] |= 1 << (i % 64);
         }
+        Self { sample: Vec::with_capacity(wanted as usize), chosen, total, offered: 0 }
     }
 
-    /// Offers the next position (beyond `total`, none is taken).
+    /// Offers the next sample's position (beyond `total`, none is taken).
     #[inline]
     pub(super) fn offer(&mut self, p: DVec3) {
-        let need = (self.wanted - self.sample.len()) as u64;
-        if need > 0 && (need >= self.left || self.rng.random_range(0..self.left) < need) {
+        let i = self.offered;
+        if i < self.total && self.chosen[(i / 64) as usize] >> (i % 64) & 1 == 1 {
             self.sample.push(p);
         }
-        self.left = self.left.saturating_sub(1);
+        self.offered += 1;
+    }
+
+    /// Takes the chosen of `items` (the first `total` samples, all in memory), touching only them.
+    pub(super) fn take<T>(&mut self, items: &[T], position: impl Fn(&T) -> DVec3) {
+        for (w, &word) in self.chosen.iter().enumerate() {
+            let mut bits = word;
+            while bits != 0 {
+                let i = w * 64 + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                if let Some(item) = items.get(i) {
+                    self.sample.push(position(item));
+                }
+            }
+        }
+        self.offered += items.len() as u64;
     }
 }
 
@@ -381,13 +421,22 @@ fn distribute(
 /// The samples of one region: its cells, in order (in `recs`, whose contents are replaced).
 pub(super) fn read_region(cells: &[Cell], mut recs: Vec<RawRec>) -> std::io::Result<Vec<RawRec>> {
     recs.clear();
-    recs.resize(cells.iter().map(|c| c.count as usize).sum(), RawRec::zeroed());
-    let mut at = 0;
+    recs.par_extend(rayon::iter::repeat_n(RawRec::zeroed(), cells.iter().map(|c| c.count as usize).sum()));
+    // Each cell into its own part of the buffer, on the pool (the copies from the page cache,
+    // one core's work otherwise while the other waits for the region); the first error in the
+    // cells' order is the one reported.
+    let mut parts = Vec::with_capacity(cells.len());
+    let mut rest = recs.as_mut_slice();
     for c in cells {
-        let len = c.count as usize;
-        File::open(c.file.path())?.read_exact(bytemuck::cast_slice_mut(&mut recs[at..at + len]))?;
-        at += len;
+        let (part, tail) = rest.split_at_mut(c.count as usize);
+        parts.push((c, part));
+        rest = tail;
     }
+    let results: Vec<std::io::Result<()>> = parts
+        .into_par_iter()
+        .map(|(c, part)| File::open(c.file.path())?.read_exact(bytemuck::cast_slice_mut(part)))
+        .collect();
+    results.into_iter().collect::<std::io::Result<()>>()?;
     Ok(recs)
 }
 
@@ -419,6 +468,16 @@ mod tests {
         let mut over = Selection::new(3, 5, 7);
         (0..50).for_each(|i| over.offer(p(i)));
         assert!(over.sample.len() == 3 && over.sample.iter().all(|q| q.x < 5.0), "{:?}", over.sample);
+        // Taken from memory: the same sample as offered one by one, across bitmap words.
+        let items: Vec<DVec3> = (0..1000).map(p).collect();
+        for (size, seed) in [(1usize, 3u64), (64, 4), (500, 5), (999, 6), (1000, 7), (2000, 8)] {
+            let (mut offered, mut taken) =
+                (Selection::new(size, 1000, seed), Selection::new(size, 1000, seed));
+            items.iter().for_each(|&q| offered.offer(q));
+            taken.take(&items, |&q| q);
+            assert_eq!(offered.sample, taken.sample, "size {size}, seed {seed}");
+            assert_eq!(taken.sample.len(), size.min(1000));
+        }
     }
 
     #[test]

@@ -287,25 +287,8 @@ fn read_guarded<E>(path: &Path, sink: &mut dyn Sink<Error = E>) -> Result<ReadRe
                 *mode.insert(widened.unwrap_or(m))
             }
         };
-        let out = match (mode, data.rgb()) {
-            (Colour::Rgb(max), Some(rgb)) => points(
-                &data,
-                &mut index,
-                rgb.map(|(r, g, b)| {
-                    let ch = |v: u16| super::to_u8(f64::from(v), max);
-                    [ch(r), ch(g), ch(b), 255]
-                }),
-            ),
-            (Colour::Intensity(max), _) => points(
-                &data,
-                &mut index,
-                data.intensity().map(|i| {
-                    let g = super::to_u8(f64::from(i), max);
-                    [g, g, g, 255]
-                }),
-            ),
-            _ => points(&data, &mut index, std::iter::repeat([0; 4])),
-        }?;
+        let out = convert(&data, &header, mode, index)?;
+        index += out.len() as u64;
         report.rows += out.len() as u64;
         report.points += out.len() as u64;
         sink.points(out).map_err(LasError::Sink)?;
@@ -314,21 +297,83 @@ fn read_guarded<E>(path: &Path, sink: &mut dyn Sink<Error = E>) -> Result<ReadRe
     Ok(report)
 }
 
-/// The points of a chunk with their `colors`; `index` counts them (1-based in errors).
-fn points<E>(
+/// Records converted at a time by one task of [`convert`].
+const PART: usize = 1 << 13;
+
+/// The points of a chunk whose first point follows the `before`-th of the file, converted on the
+/// pool a part at a time (each part's records taken column by column, as the `las` crate reads a
+/// buffer of them); the error is that of the first point in the file's order that has one.
+/// Converting a chunk on one core made the reading of a 5 M-point LAS file, and with it the start
+/// of its import, wait on that core.
+fn convert<E>(
     data: &::las::PointData,
-    index: &mut u64,
-    colors: impl Iterator<Item = [u8; 4]>,
+    header: &::las::Header,
+    mode: Colour,
+    before: u64,
 ) -> Result<Vec<InputPoint>, LasError<E>> {
-    let mut out = Vec::with_capacity(data.len());
-    for (((x, y), z), color) in data.x().zip(data.y()).zip(data.z()).zip(colors) {
-        *index += 1;
-        if !(x.is_finite() && y.is_finite() && z.is_finite()) {
-            return Err(LasError::NonFinite { index: *index, x, y, z });
-        }
-        out.push(InputPoint::at(DVec3::new(x, y, z), color));
+    use rayon::prelude::*;
+    let mut out = vec![InputPoint::at(DVec3::ZERO, [0; 4]); data.len()];
+    let record = data.record_len();
+    let failed: Vec<LasError> = out
+        .par_chunks_mut(PART)
+        .zip(data.raw_bytes().par_chunks(PART * record))
+        .enumerate()
+        .filter_map(|(i, (out, bytes))| {
+            let part = ::las::PointDataBuilder::new().for_header(header).build_from_bytes(bytes.to_vec());
+            let first = before + (i * PART) as u64;
+            part.map_err(LasError::Las).and_then(|part| fill(&part, mode, first, out)).err()
+        })
+        .collect();
+    match failed.into_iter().next() {
+        None => Ok(out),
+        Some(LasError::NonFinite { index, x, y, z }) => Err(LasError::NonFinite { index, x, y, z }),
+        Some(LasError::Las(e)) => Err(LasError::Las(e)),
+        Some(other) => Err(LasError::Corrupt(other.to_string())),
     }
-    Ok(out)
+}
+
+/// Fills `out` with the points of `part` in `mode`; the first follows the `before`-th point of the
+/// file (1-based indices in errors).
+fn fill(part: &::las::PointData, mode: Colour, before: u64, out: &mut [InputPoint]) -> Result<(), LasError> {
+    match (mode, part.rgb()) {
+        (Colour::Rgb(max), Some(rgb)) => points(
+            part,
+            before,
+            rgb.map(|(r, g, b)| {
+                let ch = |v: u16| super::to_u8(f64::from(v), max);
+                [ch(r), ch(g), ch(b), 255]
+            }),
+            out,
+        ),
+        (Colour::Intensity(max), _) => points(
+            part,
+            before,
+            part.intensity().map(|i| {
+                let g = super::to_u8(f64::from(i), max);
+                [g, g, g, 255]
+            }),
+            out,
+        ),
+        _ => points(part, before, std::iter::repeat([0; 4]), out),
+    }
+}
+
+/// The points of `data` with their `colors`, into `out`; the first follows the `before`-th point
+/// of the file (1-based indices in errors).
+fn points(
+    data: &::las::PointData,
+    before: u64,
+    colors: impl Iterator<Item = [u8; 4]>,
+    out: &mut [InputPoint],
+) -> Result<(), LasError> {
+    let coords = data.x().zip(data.y()).zip(data.z()).zip(colors);
+    for (index, (o, (((x, y), z), color))) in (before + 1..).zip(out.iter_mut().zip(coords)) {
+        if !(x.is_finite() && y.is_finite() && z.is_finite()) {
+            return Err(LasError::NonFinite { index, x, y, z });
+        }
+        *o = InputPoint::at(DVec3::new(x, y, z), color);
+    }
+    Ok(())
 }
 
 /// Where a file's colour comes from, with the largest value of its range.
