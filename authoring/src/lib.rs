@@ -60,19 +60,19 @@ impl Project {
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
             Err(e) => return Err(e).with_context(|| format!("cannot read {}", graph_file.display())),
         };
-        let (pose, up_problem) = match kiosk_content::exhibit::model_pose(dir) {
-            Ok(pose) => (pose, None),
-            Err(e) => {
-                let pose = kiosk_content::exhibit::default_pose(dir);
-                let msg = format!("{e:#}; {} up used", kiosk_content::exhibit::up_label(pose.up));
-                (pose, Some(Problem { node: None, msg, dropped: false }))
-            }
-        };
+        // What exhibit.toml could give: a key it could not take is left at its default.
+        let settings = kiosk_content::exhibit::exhibit_settings(dir);
+        let pose = settings.pose;
+        let up_problems = settings.problems.iter().map(|e| Problem {
+            node: None,
+            msg: format!("{e:#}; {} up used", kiosk_content::exhibit::up_label(pose.up)),
+            dropped: false,
+        });
         let (graph, mut problems) = match kiosk_content::exhibit::open_graph(dir)? {
             Some((g, p)) => (g, p),
             None => (InfoGraph { default_lang: "en".into(), ..InfoGraph::default() }, Vec::new()),
         };
-        problems.extend(up_problem);
+        problems.extend(up_problems);
         Ok((
             Self {
                 dir: dir.to_path_buf(),

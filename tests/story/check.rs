@@ -36,7 +36,7 @@ fn kiosk_check_lists_what_the_kiosk_would_leave_out_naming_file_and_node() {
 
     // A narration that does not decode, a truncated overlay, a node whose view is broken (and
     // the edges to it), a misspelt key in exhibit.toml: each named with its file and node; the
-    // kiosk would leave them out, so the check fails.
+    // kiosk would leave them out (the key: ignored), so the check fails.
     let broken = dir.path().join("broken");
     common::copy_dir(&content.join("demosthenes"), &broken);
     std::fs::write(broken.join("audio/brow-it.wav"), b"RIFF not really a wave").expect("write");
@@ -55,7 +55,7 @@ fn kiosk_check_lists_what_the_kiosk_would_leave_out_naming_file_and_node() {
         format!("error: {g}: node 'face': edge intro → face names a node dropped above; dropped"),
         format!("error: {g}: node 'brow': narration audio/brow-it.wav: "),
         format!("error: {g}: node 'intro': image overlays/intro-en.png: "),
-        format!("error: {}: TOML parse error", broken.join("exhibit.toml").display()),
+        format!("error: {}: unknown key `frnt`", broken.join("exhibit.toml").display()),
         "1 of 2 exhibit(s) have errors".to_string(),
     ] {
         assert!(out.contains(&line), "{line}\n{out}");

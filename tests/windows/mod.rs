@@ -283,6 +283,9 @@ fn broken_content_is_logged_once_and_the_rest_keeps_working() {
     let fifo = good.join("overlays/intro-it.png");
     std::fs::remove_file(&fifo).expect("remove overlay");
     assert!(Command::new("mkfifo").arg(&fifo).status().expect("mkfifo").success());
+    // A misspelt key in its exhibit.toml: the key is ignored (reported once), the exhibit shows
+    // with the up the file states.
+    std::fs::write(good.join("exhibit.toml"), "up = \"y\"\nfrnt = \"-z\"\n").expect("exhibit.toml");
     let broken = content.path().join("b-broken");
     std::fs::create_dir_all(&broken).expect("mkdir");
     std::fs::write(broken.join("model.obj"), "v 1 2 three\nf 1 2 9\n").expect("garbage model");
@@ -300,6 +303,7 @@ fn broken_content_is_logged_once_and_the_rest_keeps_working() {
     assert_eq!(count("../secret.png"), 1, "a path out of the exhibit is reported once:\n{}", run.stderr);
     assert_eq!(count("/etc/hostname"), 1, "an absolute path is reported once:\n{}", run.stderr);
     assert_eq!(count("intro-it.png"), 1, "a FIFO overlay is reported once:\n{}", run.stderr);
+    assert_eq!(count("unknown key `frnt`"), 1, "a misspelt key is reported once:\n{}", run.stderr);
     let displayed: Vec<&str> = run.trace.iter().filter_map(|f| f["explore"]["overlay"].as_str()).collect();
     assert!(displayed.contains(&"intro"), "the intro was displayed (without its drawing)");
     assert!(run.trace.iter().all(|f| f["model"] == 0), "the gallery holds only the good exhibit");

@@ -59,13 +59,16 @@ pub fn check(dir: &Path, cache: &Path, full: bool) -> Checked {
         }
         Err(e) => c.problems.push((true, format!("model: {e:#}"))),
     }
-    match exhibit::model_pose(dir) {
-        Ok(pose) => c.sound.push(format!(
+    // Every problem of exhibit.toml (the kiosk would leave that key at its default).
+    let settings = exhibit::exhibit_settings(dir);
+    if settings.problems.is_empty() {
+        let pose = settings.pose.to_toml();
+        c.sound.push(format!(
             "pose: {}",
-            pose.to_toml().lines().filter(|l| !l.starts_with('#')).collect::<Vec<_>>().join(", ")
-        )),
-        Err(e) => c.problems.push((true, format!("{e:#}"))),
+            pose.lines().filter(|l| !l.starts_with('#')).collect::<Vec<_>>().join(", ")
+        ));
     }
+    c.problems.extend(settings.problems.iter().map(|e| (true, format!("{e:#}"))));
     let graph_file = dir.join("graph.xml");
     if !graph_file.exists() {
         c.sound.push("no graph.xml: the model without a story".into());

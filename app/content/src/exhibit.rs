@@ -70,7 +70,8 @@ pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
     // Whatever the working directory, so that the files it names are noted by the same paths by
     // every program sharing the cache (the kiosk, `kiosk check`, the authoring tool).
     let file = file.canonicalize().unwrap_or(file);
-    let options = import_options(dir)?;
+    // What the exhibit's file could give; the kiosk and the checker name its problems.
+    let options = exhibit_settings(dir).import_options();
     let name = cache_name(&file, &options, kiosk_import::BUILDER_REVISION)?;
     std::fs::create_dir_all(cache).with_context(|| format!("cannot create the cache {}", cache.display()))?;
     let store = cache.join(name);
@@ -249,8 +250,8 @@ fn cache_name(file: &Path, options: &ImportOptions, revision: u32) -> anyhow::Re
 /// a scan that stands tilted in its file; the authoring tool tilts it degree by degree), `front`
 /// turns it about that axis. `up` is made unit, `front` perpendicular to `up` and unit (default:
 /// [`kiosk_core::camera::default_front`]). No file, or no `up`: +Z up for a LAS, LAZ or E57
-/// scan, +Y for the rest, and the default front. An invalid file is
-/// an error naming it and the key. The store is not turned: the kiosk's camera, its start view
+/// scan, +Y for the rest, and the default front. A key that cannot be taken is that default,
+/// beside a problem naming the file and the key ([`exhibit_settings`]). The store is not turned: the kiosk's camera, its start view
 /// and IsoCam's up vector follow the pose, so a changed pose needs no new import.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ModelPose {
@@ -298,6 +299,42 @@ impl ModelPose {
     }
 }
 
+/// What an exhibit's `exhibit.toml` says: the model's pose and the samples per texel of its
+/// import. The file is read key by key: a key that cannot be taken (a misspelt key, a value out
+/// of range, an axis that is not one) is left at its default with a problem naming the file and
+/// the key, and the other keys still count, so that a curator's typo costs that key alone (a
+/// file that is not TOML at all costs every key). No file: every default, no problem.
+#[derive(Debug)]
+pub struct ExhibitSettings {
+    /// The model's pose ([`ModelPose`]).
+    pub pose: ModelPose,
+    /// Samples per texel of a textured model's import, if the file sets them (see
+    /// [`import_options`]).
+    pub texel_density: Option<f32>,
+    /// What could not be taken, each naming the file and the key.
+    pub problems: Vec<anyhow::Error>,
+}
+
+impl ExhibitSettings {
+    /// How the kiosk imports the exhibit's scan with these settings.
+    pub fn import_options(&self) -> ImportOptions {
+        let mut options = ImportOptions::default();
+        if let Some(d) = self.texel_density {
+            options.read.texel_density = d;
+        }
+        options
+    }
+
+    /// The settings, or the first problem of the file.
+    fn strict(self) -> anyhow::Result<Self> {
+        match self.problems.into_iter().next() {
+            Some(e) => Err(e),
+            None => Ok(Self { problems: Vec::new(), ..self }),
+        }
+    }
+}
+
+/// A direction as `exhibit.toml` writes it.
 #[derive(serde::Deserialize)]
 #[serde(untagged)]
 enum Direction {
@@ -305,97 +342,124 @@ enum Direction {
     Vector([f64; 3]),
 }
 
-/// `exhibit.toml`: the model's pose ([`model_pose`]) and how the kiosk imports its scan
-/// ([`import_options`]).
-#[derive(Default, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct ExhibitFile {
-    up: Option<Direction>,
-    front: Option<Direction>,
-    texel_density: Option<f32>,
+/// The keys `exhibit.toml` may hold.
+const KEYS: [&str; 3] = ["up", "front", "texel_density"];
+
+/// Reads an exhibit directory's `exhibit.toml` ([`ExhibitSettings`]).
+pub fn exhibit_settings(dir: &Path) -> ExhibitSettings {
+    let path = dir.join("exhibit.toml");
+    let mut problems = Vec::new();
+    let table = match std::fs::read_to_string(&path) {
+        Ok(text) => toml::from_str::<toml::Table>(&text).unwrap_or_else(|e| {
+            problems.push(anyhow::Error::new(e).context(format!("{}", path.display())));
+            toml::Table::new()
+        }),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => toml::Table::new(),
+        Err(e) => {
+            problems.push(anyhow::Error::new(e).context(format!("cannot read {}", path.display())));
+            toml::Table::new()
+        }
+    };
+    for key in table.keys().filter(|k| !KEYS.contains(&k.as_str())) {
+        problems.push(anyhow::anyhow!(
+            "{}: unknown key `{key}` (the keys are up, front and texel_density); ignored",
+            path.display()
+        ));
+    }
+    let up =
+        taken(table.get("up").map(|v| up_of(&path, v)), &mut problems).unwrap_or_else(|| default_up(dir));
+    let front = taken(table.get("front").map(|v| front_of(&path, v, up)), &mut problems);
+    let texel_density = taken(table.get("texel_density").map(|v| density_of(&path, v)), &mut problems);
+    ExhibitSettings { pose: ModelPose { up, front }, texel_density, problems }
 }
 
-/// An exhibit directory's `exhibit.toml` (its path, and the default when there is none).
-fn exhibit_file(dir: &Path) -> anyhow::Result<(PathBuf, ExhibitFile)> {
-    let path = dir.join("exhibit.toml");
-    let text = match std::fs::read_to_string(&path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok((path, ExhibitFile::default())),
-        Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
+/// The value of a key that was given and could be taken; a problem for one that could not.
+fn taken<T>(given: Option<anyhow::Result<T>>, problems: &mut Vec<anyhow::Error>) -> Option<T> {
+    given?.map_err(|e| problems.push(e)).ok()
+}
+
+/// An axis by its name in `exhibit.toml`.
+fn axis(path: &Path, key: &str, name: &str) -> anyhow::Result<glam::DVec3> {
+    match UP_AXES.iter().find(|(n, _)| *n == name.trim()) {
+        Some((_, axis)) => Ok(*axis),
+        None => {
+            anyhow::bail!("{}: {key} = {name:?}: must be x, y, z, -x, -y, -z or [x, y, z]", path.display())
+        }
+    }
+}
+
+/// A direction of `exhibit.toml`, as written: an axis, or a vector.
+fn direction(path: &Path, key: &str, value: &toml::Value) -> anyhow::Result<glam::DVec3> {
+    match value.clone().try_into::<Direction>() {
+        Ok(Direction::Axis(name)) => axis(path, key, &name),
+        Ok(Direction::Vector(v)) => Ok(glam::DVec3::from_array(v)),
+        Err(_) => {
+            anyhow::bail!("{}: {key} = {value}: must be x, y, z, -x, -y, -z or [x, y, z]", path.display())
+        }
+    }
+}
+
+/// `up` of `exhibit.toml`, unit.
+fn up_of(path: &Path, value: &toml::Value) -> anyhow::Result<glam::DVec3> {
+    let v = direction(path, "up", value)?;
+    ModelPose::unit_up(v)
+        .with_context(|| format!("{}: up = {v}: a direction, not zero or infinite", path.display()))
+}
+
+/// `front` of `exhibit.toml`, levelled to `up`.
+fn front_of(path: &Path, value: &toml::Value, up: glam::DVec3) -> anyhow::Result<glam::DVec3> {
+    let v = direction(path, "front", value)?;
+    let scaled = scaled(v);
+    anyhow::ensure!(
+        scaled.is_finite() && scaled.length() > 0.0,
+        "{}: front = {v}: a direction, not zero or infinite",
+        path.display()
+    );
+    ModelPose::level(up, scaled).with_context(|| {
+        format!("{}: front = {v}: along the up axis; the front is a side of the model", path.display())
+    })
+}
+
+/// `texel_density` of `exhibit.toml`.
+fn density_of(path: &Path, value: &toml::Value) -> anyhow::Result<f32> {
+    let d = match value {
+        toml::Value::Float(f) => *f as f32,
+        toml::Value::Integer(i) => *i as f32,
+        _ => f32::NAN,
     };
-    let file = toml::from_str(&text).with_context(|| format!("{}", path.display()))?;
-    Ok((path, file))
+    anyhow::ensure!(
+        kiosk_import::ReadOptions::texel_density_ok(d),
+        "{}: texel_density = {value}: samples per texel, more than 0 and at most 64",
+        path.display()
+    );
+    Ok(d)
 }
 
 /// How the kiosk imports an exhibit's scan: the default settings of `kiosk import`, but for the
 /// samples per texel of a textured model, which `exhibit.toml` may set (`texel_density = 0.5`:
 /// one sample per 2 × 2 texels, for an atlas finer than the kiosk needs; more than 0, at most
-/// 64). A changed setting imports the scan again.
+/// 64). A changed setting imports the scan again. Any problem of the file is an error (the kiosk
+/// itself imports with what [`exhibit_settings`] could take).
 pub fn import_options(dir: &Path) -> anyhow::Result<ImportOptions> {
-    let (path, file) = exhibit_file(dir)?;
-    let mut options = ImportOptions::default();
-    if let Some(d) = file.texel_density {
-        anyhow::ensure!(
-            kiosk_import::ReadOptions::texel_density_ok(d),
-            "{}: texel_density = {d}: samples per texel, more than 0 and at most 64",
-            path.display()
-        );
-        options.read.texel_density = d;
-    }
-    Ok(options)
+    Ok(exhibit_settings(dir).strict()?.import_options())
 }
 
 /// `exhibit.toml`'s text for `pose`, keeping the other settings the exhibit's file has (the
 /// authoring tool rewrites the pose alone).
 pub fn exhibit_toml(dir: &Path, pose: &ModelPose) -> String {
     let mut text = pose.to_toml();
-    if let Ok((_, ExhibitFile { texel_density: Some(d), .. })) = exhibit_file(dir) {
+    if let Some(d) = exhibit_settings(dir).texel_density {
         text += "# Samples per texel of the model's textures when the kiosk imports it.\n";
         text += &format!("texel_density = {d:?}\n");
     }
     text
 }
 
-/// Reads [`ModelPose`] from an exhibit directory's `exhibit.toml`.
+/// Reads [`ModelPose`] from an exhibit directory's `exhibit.toml`; any problem of the file is an
+/// error (the kiosk and the authoring tool show the model in [`exhibit_settings`]'s pose, with
+/// what the file could give, beside the problems).
 pub fn model_pose(dir: &Path) -> anyhow::Result<ModelPose> {
-    let (path, file) = exhibit_file(dir)?;
-    let axis = |key: &str, name: &str| match UP_AXES.iter().find(|(n, _)| *n == name.trim()) {
-        Some((_, axis)) => Ok(*axis),
-        None => {
-            anyhow::bail!("{}: {key} = {name:?}: must be x, y, z, -x, -y, -z or [x, y, z]", path.display())
-        }
-    };
-    let up = match file.up {
-        None => default_up(dir),
-        Some(Direction::Axis(name)) => axis("up", &name)?,
-        Some(Direction::Vector(v)) => {
-            let v = glam::DVec3::from_array(v);
-            ModelPose::unit_up(v)
-                .with_context(|| format!("{}: up = {v}: a direction, not zero or infinite", path.display()))?
-        }
-    };
-    let front = match file.front {
-        None => None,
-        Some(d) => {
-            let v = match d {
-                Direction::Axis(name) => axis("front", &name)?,
-                Direction::Vector(v) => glam::DVec3::from_array(v),
-            };
-            let scaled = scaled(v);
-            anyhow::ensure!(
-                scaled.is_finite() && scaled.length() > 0.0,
-                "{}: front = {v}: a direction, not zero or infinite",
-                path.display()
-            );
-            Some(ModelPose::level(up, scaled).with_context(|| {
-                format!(
-                    "{}: front = {v}: along the up axis; the front is a side of the model",
-                    path.display()
-                )
-            })?)
-        }
-    };
-    Ok(ModelPose { up, front })
+    Ok(exhibit_settings(dir).strict()?.pose)
 }
 
 /// The named axis `d` is, to within rounding.
@@ -415,12 +479,6 @@ fn scaled(v: glam::DVec3) -> glam::DVec3 {
 fn default_up(dir: &Path) -> glam::DVec3 {
     let survey = |p: PathBuf| SURVEYS.iter().any(|e| lower_name(&p).ends_with(e));
     if model_file(dir).is_ok_and(survey) { glam::DVec3::Z } else { glam::DVec3::Y }
-}
-
-/// The pose a model is shown in when its `exhibit.toml` cannot be read (beside the error): the
-/// pose of one that does not say, [`default_up`] and no front.
-pub fn default_pose(dir: &Path) -> ModelPose {
-    ModelPose { up: default_up(dir), front: None }
 }
 
 /// The name of an up axis in messages: "+Z", "-Y"; other directions as vectors.
@@ -768,6 +826,40 @@ mod tests {
     }
 
     #[test]
+    fn a_key_that_cannot_be_taken_costs_that_key_alone() {
+        let root = tempfile::tempdir().expect("temp dir");
+        let (dir, _) = box_exhibit(root.path());
+        let file = dir.join("exhibit.toml");
+        let settings = |text: &str| {
+            std::fs::write(&file, text).expect("write");
+            let s = exhibit_settings(&dir);
+            let problems: Vec<String> = s.problems.iter().map(|e| format!("{e:#}")).collect();
+            (s.pose, s.texel_density, problems)
+        };
+        // A misspelt key beside a stated up and density: both kept, the key named.
+        let (pose, density, problems) = settings("up = \"z\"\nfrnt = \"-y\"\ntexel_density = 0.5\n");
+        assert_eq!((pose, density), (ModelPose { up: glam::DVec3::Z, front: None }, Some(0.5)));
+        assert!(problems.len() == 1 && problems[0].contains("unknown key `frnt`"), "{problems:?}");
+        assert!(problems[0].contains("exhibit.toml"), "{problems:?}");
+        // A broken front keeps the stated up; a density out of range keeps the pose.
+        let (pose, density, problems) = settings("up = \"z\"\nfront = \"north\"\ntexel_density = 100\n");
+        assert_eq!((pose, density), (ModelPose { up: glam::DVec3::Z, front: None }, None));
+        assert!(problems.len() == 2, "{problems:?}");
+        assert!(problems[0].contains("front = \"north\"") && problems[1].contains("texel_density = 100"));
+        // A broken up: the default up, and a front stated beside it levelled to that.
+        let (pose, _, problems) = settings("up = [0.0, 0.0, 0.0]\nfront = \"z\"\n");
+        assert_eq!(pose, ModelPose { up: glam::DVec3::Y, front: Some(glam::DVec3::Z) });
+        assert!(problems.len() == 1 && problems[0].contains("up = [0, 0, 0]"), "{problems:?}");
+        // The strict readers fail on any of it; the kiosk imports with what could be taken.
+        settings("frnt = 1\ntexel_density = 0.25\n");
+        assert!(model_pose(&dir).is_err() && import_options(&dir).is_err());
+        assert_eq!(exhibit_settings(&dir).import_options().read.texel_density, 0.25);
+        // The authoring tool's rewrite of the pose keeps the density that could be taken.
+        let rewritten = exhibit_toml(&dir, &ModelPose { up: glam::DVec3::Z, front: None });
+        assert!(rewritten.contains("texel_density = 0.25") && !rewritten.contains("frnt"), "{rewritten}");
+    }
+
+    #[test]
     fn a_survey_scan_stands_on_z_unless_its_exhibit_says_otherwise() {
         let root = tempfile::tempdir().expect("temp dir");
         for (name, up) in [
@@ -783,10 +875,16 @@ mod tests {
             assert_eq!(model_pose(&dir).expect("pose").up, up, "{name}");
             std::fs::write(dir.join("exhibit.toml"), "up = \"x\"\n").expect("toml");
             assert_eq!(model_pose(&dir).expect("pose").up, glam::DVec3::X, "{name}: stated");
-            // A broken exhibit.toml: the kiosk shows the scan as if it said nothing.
+            // A broken up: the kiosk shows the scan as if it said nothing, and says why.
             std::fs::write(dir.join("exhibit.toml"), "up = \"sideways\"\n").expect("toml");
             assert!(model_pose(&dir).is_err(), "{name}: broken");
-            assert_eq!(default_pose(&dir), ModelPose { up, front: None }, "{name}: broken");
+            let settings = exhibit_settings(&dir);
+            assert_eq!(settings.pose, ModelPose { up, front: None }, "{name}: broken");
+            assert_eq!(settings.problems.len(), 1, "{name}: {:?}", settings.problems);
+            // A file that is not TOML: every default, one problem.
+            std::fs::write(dir.join("exhibit.toml"), "up = \"x\n").expect("toml");
+            let settings = exhibit_settings(&dir);
+            assert_eq!((settings.pose.up, settings.problems.len()), (up, 1), "{name}: not TOML");
         }
         assert_eq!(up_label(glam::DVec3::Z), "+Z");
         assert_eq!(up_label(glam::DVec3::NEG_Y), "-Y");

@@ -73,17 +73,15 @@ pub fn load_exhibits(config: &Config) -> anyhow::Result<Vec<Exhibit>> {
                 None
             }
         };
-        let pose = match kiosk_content::exhibit::model_pose(&dir) {
-            Ok(pose) => pose,
-            Err(e) => {
-                let pose = kiosk_content::exhibit::default_pose(&dir);
-                tracing::error!(
-                    "{e:#}; the model is shown with {} up",
-                    kiosk_content::exhibit::up_label(pose.up)
-                );
-                pose
-            }
-        };
+        // What exhibit.toml could give: a key it could not take is left at its default.
+        let settings = kiosk_content::exhibit::exhibit_settings(&dir);
+        let pose = settings.pose;
+        for e in &settings.problems {
+            tracing::error!(
+                "{e:#}; the model is shown with {} up",
+                kiosk_content::exhibit::up_label(pose.up)
+            );
+        }
         tracing::info!("exhibit {}: {} samples", dir.display(), store.header().leaf_point_count);
         out.push(Exhibit {
             dir,
