@@ -316,18 +316,18 @@ impl Plan {
 }
 
 /// A seeded random sample of `size` of `total` samples (all of them when they are fewer), kept
-/// in their order: the indices are chosen first, every subset of that size equally likely (Floyd's
-/// algorithm: one random draw per index chosen, marked in a bitmap of `total` bits), then the
-/// samples are taken as they are offered in turn ([`Selection::offer`]) or straight from memory
-/// ([`Selection::take`]). Selection sampling (Knuth's Algorithm S), one draw per sample offered,
-/// took 85 ms of a single core for the 4 M samples of the first chunk; a reservoir before it,
-/// which replaces samples at random places of a sample of 24 MB, an eighth of the reading's
-/// profile.
+/// in their order: the indices are chosen first, every subset of that size equally likely
+/// (Floyd's algorithm: one random draw per index chosen), then the samples are taken as they are
+/// offered in turn ([`Selection::offer`]) or straight from memory ([`Selection::take`]).
+/// Selection sampling (Knuth's Algorithm S), one draw per sample offered, took 85 ms of a single
+/// core for the 4 M samples of the first chunk; a reservoir before it, which replaces samples at
+/// random places of a sample of 24 MB, an eighth of the reading's profile.
 pub(super) struct Selection {
     pub(super) sample: Vec<DVec3>,
-    /// Bit i set: the i-th sample is taken.
+    /// The indices taken, ascending.
     chosen: Vec<u64>,
-    total: u64,
+    /// Of them, the next to be offered.
+    next: usize,
     /// Samples offered so far.
     offered: u64,
 }
@@ -335,42 +335,68 @@ pub(super) struct Selection {
 impl Selection {
     pub(super) fn new(size: usize, total: u64, seed: u64) -> Self {
         let wanted = (size as u64).min(total);
-        let mut chosen = vec![0u64; total.div_ceil(64) as usize];
-        let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
-        let bit = |i: u64| (i / 64) as usize;
-        // Floyd: for each j of the last `wanted` indices, a random t ≤ j, or j itself when t is
-        // taken already; every subset of `wanted` indices comes out equally likely.
-        for j in total - wanted..total {
-            let t = rng.random_range(0..=j);
-            let i = if chosen[bit(t)] >> (t % 64) & 1 == 1 { j } else { t };
-            chosen[bit(i)] |= 1 << (i % 64);
-        }
-        Self { sample: Vec::with_capacity(wanted as usize), chosen, total, offered: 0 }
+        // Floyd marks the indices in a bitmap of `total` bits where that is at most 8 bytes per
+        // index wanted (a chunk in memory), in a hash set otherwise (a cell of a billion samples):
+        // the same draws, so the same indices, in memory bounded by the sample either way.
+        let chosen = floyd(wanted, total, seed, total <= 64 * wanted);
+        Self { sample: Vec::with_capacity(wanted as usize), chosen, next: 0, offered: 0 }
     }
 
     /// Offers the next sample's position (beyond `total`, none is taken).
     #[inline]
     pub(super) fn offer(&mut self, p: DVec3) {
-        let i = self.offered;
-        if i < self.total && self.chosen[(i / 64) as usize] >> (i % 64) & 1 == 1 {
+        if self.chosen.get(self.next) == Some(&self.offered) {
             self.sample.push(p);
+            self.next += 1;
         }
         self.offered += 1;
     }
 
     /// Takes the chosen of `items` (the first `total` samples, all in memory), touching only them.
     pub(super) fn take<T>(&mut self, items: &[T], position: impl Fn(&T) -> DVec3) {
-        for (w, &word) in self.chosen.iter().enumerate() {
-            let mut bits = word;
-            while bits != 0 {
-                let i = w * 64 + bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                if let Some(item) = items.get(i) {
-                    self.sample.push(position(item));
-                }
+        for &i in &self.chosen[self.next..] {
+            match usize::try_from(i).ok().and_then(|i| items.get(i)) {
+                Some(item) => self.sample.push(position(item)),
+                None => break,
             }
+            self.next += 1;
         }
         self.offered += items.len() as u64;
+    }
+}
+
+/// `wanted` of the indices `0..total`, ascending, every subset equally likely (Floyd: for each j
+/// of the last `wanted` indices, a random t ≤ j, or j itself when t is taken already), marked in
+/// a bitmap or a hash set (`bitmap`), which draw the same indices.
+fn floyd(wanted: u64, total: u64, seed: u64, bitmap: bool) -> Vec<u64> {
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
+    let draws = (total - wanted..total).map(move |j| (j, rng.random_range(0..=j)));
+    if bitmap {
+        let mut bits = vec![0u64; total.div_ceil(64) as usize];
+        let word = |i: u64| (i / 64) as usize;
+        for (j, t) in draws {
+            let i = if bits[word(t)] >> (t % 64) & 1 == 1 { j } else { t };
+            bits[word(i)] |= 1 << (i % 64);
+        }
+        let mut chosen = Vec::with_capacity(wanted as usize);
+        for (w, &b) in bits.iter().enumerate() {
+            let mut b = b;
+            while b != 0 {
+                chosen.push(w as u64 * 64 + u64::from(b.trailing_zeros()));
+                b &= b - 1;
+            }
+        }
+        chosen
+    } else {
+        let mut set = std::collections::HashSet::with_capacity(wanted as usize);
+        for (j, t) in draws {
+            if !set.insert(t) {
+                set.insert(j);
+            }
+        }
+        let mut chosen: Vec<u64> = set.into_iter().collect();
+        chosen.sort_unstable();
+        chosen
     }
 }
 
@@ -468,6 +494,13 @@ mod tests {
         let mut over = Selection::new(3, 5, 7);
         (0..50).for_each(|i| over.offer(p(i)));
         assert!(over.sample.len() == 3 && over.sample.iter().all(|q| q.x < 5.0), "{:?}", over.sample);
+        // The bitmap and the hash set draw the same indices.
+        for (wanted, total, seed) in [(0u64, 0u64, 1u64), (0, 10, 2), (7, 7, 3), (30, 100, 4), (64, 1000, 5)]
+        {
+            let bits = floyd(wanted, total, seed, true);
+            assert_eq!(bits, floyd(wanted, total, seed, false), "{wanted} of {total}");
+            assert!(bits.len() as u64 == wanted && bits.windows(2).all(|w| w[0] < w[1]), "{bits:?}");
+        }
         // Taken from memory: the same sample as offered one by one, across bitmap words.
         let items: Vec<DVec3> = (0..1000).map(p).collect();
         for (size, seed) in [(1usize, 3u64), (64, 4), (500, 5), (999, 6), (1000, 7), (2000, 8)] {
