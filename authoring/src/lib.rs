@@ -63,11 +63,8 @@ impl Project {
         // What exhibit.toml could give: a key it could not take is left at its default.
         let settings = kiosk_content::exhibit::exhibit_settings(dir);
         let pose = settings.pose;
-        let up_problems = settings.problems.iter().map(|e| Problem {
-            node: None,
-            msg: format!("{e:#}; {} up used", kiosk_content::exhibit::up_label(pose.up)),
-            dropped: false,
-        });
+        let up_problems =
+            settings.messages().into_iter().map(|msg| Problem { node: None, msg, dropped: false });
         let (graph, mut problems) = match kiosk_content::exhibit::open_graph(dir)? {
             Some((g, p)) => (g, p),
             None => (InfoGraph { default_lang: "en".into(), ..InfoGraph::default() }, Vec::new()),

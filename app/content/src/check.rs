@@ -59,16 +59,15 @@ pub fn check(dir: &Path, cache: &Path, full: bool) -> Checked {
         }
         Err(e) => c.problems.push((true, format!("model: {e:#}"))),
     }
-    // Every problem of exhibit.toml (the kiosk would leave that key at its default).
+    // Every problem of exhibit.toml (the kiosk would leave that key at its default), and the pose
+    // the kiosk shows the model in.
     let settings = exhibit::exhibit_settings(dir);
-    if settings.problems.is_empty() {
-        let pose = settings.pose.to_toml();
-        c.sound.push(format!(
-            "pose: {}",
-            pose.lines().filter(|l| !l.starts_with('#')).collect::<Vec<_>>().join(", ")
-        ));
-    }
-    c.problems.extend(settings.problems.iter().map(|e| (true, format!("{e:#}"))));
+    let pose = settings.pose.to_toml();
+    c.sound.push(format!(
+        "pose: {}",
+        pose.lines().filter(|l| !l.starts_with('#')).collect::<Vec<_>>().join(", ")
+    ));
+    c.problems.extend(settings.messages().into_iter().map(|m| (true, m)));
     let graph_file = dir.join("graph.xml");
     if !graph_file.exists() {
         c.sound.push("no graph.xml: the model without a story".into());

@@ -251,8 +251,9 @@ fn cache_name(file: &Path, options: &ImportOptions, revision: u32) -> anyhow::Re
 /// turns it about that axis. `up` is made unit, `front` perpendicular to `up` and unit (default:
 /// [`kiosk_core::camera::default_front`]). No file, or no `up`: +Z up for a LAS, LAZ or E57
 /// scan, +Y for the rest, and the default front. A key that cannot be taken is that default,
-/// beside a problem naming the file and the key ([`exhibit_settings`]). The store is not turned: the kiosk's camera, its start view
-/// and IsoCam's up vector follow the pose, so a changed pose needs no new import.
+/// beside a problem naming the file and the key ([`exhibit_settings`]). The store is not turned:
+/// the kiosk's camera, its start view and IsoCam's up vector follow the pose, so a changed pose
+/// needs no new import.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ModelPose {
     /// The model's up direction (unit).
@@ -311,8 +312,24 @@ pub struct ExhibitSettings {
     /// Samples per texel of a textured model's import, if the file sets them (see
     /// [`import_options`]).
     pub texel_density: Option<f32>,
-    /// What could not be taken, each naming the file and the key.
-    pub problems: Vec<anyhow::Error>,
+    /// What could not be taken: what each problem is about, and why (naming the file and the
+    /// key).
+    pub problems: Vec<(Setting, anyhow::Error)>,
+}
+
+/// What a problem of `exhibit.toml` is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Setting {
+    /// The file as a whole (unreadable, or not TOML): every key at its default.
+    File,
+    /// A key it does not know: ignored.
+    Unknown,
+    /// `up`.
+    Up,
+    /// `front`.
+    Front,
+    /// `texel_density`.
+    TexelDensity,
 }
 
 impl ExhibitSettings {
@@ -325,10 +342,25 @@ impl ExhibitSettings {
         options
     }
 
-    /// The settings, or the first problem of the file.
-    fn strict(self) -> anyhow::Result<Self> {
-        match self.problems.into_iter().next() {
-            Some(e) => Err(e),
+    /// Each problem with what the kiosk does about it, for a log or a list.
+    pub fn messages(&self) -> Vec<String> {
+        let up = up_label(self.pose.up);
+        let message = |(about, e): &(Setting, anyhow::Error)| match about {
+            Setting::File => format!("{e:#}; every setting at its default ({up} up)"),
+            Setting::Unknown => format!("{e:#}"),
+            Setting::Up | Setting::Front => format!("{e:#}; the model is shown with {up} up"),
+            Setting::TexelDensity => format!("{e:#}; imported at the default samples per texel"),
+        };
+        self.problems.iter().map(message).collect()
+    }
+
+    /// The settings, or the first problem of the file that is about one of `settings` (or the
+    /// file, or a key it does not know).
+    fn strict(self, settings: &[Setting]) -> anyhow::Result<Self> {
+        let relevant =
+            |about: &Setting| matches!(about, Setting::File | Setting::Unknown) || settings.contains(about);
+        match self.problems.into_iter().find(|(about, _)| relevant(about)) {
+            Some((_, e)) => Err(e),
             None => Ok(Self { problems: Vec::new(), ..self }),
         }
     }
@@ -351,31 +383,41 @@ pub fn exhibit_settings(dir: &Path) -> ExhibitSettings {
     let mut problems = Vec::new();
     let table = match std::fs::read_to_string(&path) {
         Ok(text) => toml::from_str::<toml::Table>(&text).unwrap_or_else(|e| {
-            problems.push(anyhow::Error::new(e).context(format!("{}", path.display())));
+            problems.push((Setting::File, anyhow::Error::new(e).context(format!("{}", path.display()))));
             toml::Table::new()
         }),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => toml::Table::new(),
         Err(e) => {
-            problems.push(anyhow::Error::new(e).context(format!("cannot read {}", path.display())));
+            let e = anyhow::Error::new(e).context(format!("cannot read {}", path.display()));
+            problems.push((Setting::File, e));
             toml::Table::new()
         }
     };
     for key in table.keys().filter(|k| !KEYS.contains(&k.as_str())) {
-        problems.push(anyhow::anyhow!(
-            "{}: unknown key `{key}` (the keys are up, front and texel_density); ignored",
-            path.display()
+        problems.push((
+            Setting::Unknown,
+            anyhow::anyhow!(
+                "{}: unknown key `{key}` (the keys are up, front and texel_density); ignored",
+                path.display()
+            ),
         ));
     }
-    let up =
-        taken(table.get("up").map(|v| up_of(&path, v)), &mut problems).unwrap_or_else(|| default_up(dir));
-    let front = taken(table.get("front").map(|v| front_of(&path, v, up)), &mut problems);
-    let texel_density = taken(table.get("texel_density").map(|v| density_of(&path, v)), &mut problems);
+    let given = |key: &str| table.get(key);
+    let up = taken(Setting::Up, given("up").map(|v| up_of(&path, v)), &mut problems)
+        .unwrap_or_else(|| default_up(dir));
+    let front = taken(Setting::Front, given("front").map(|v| front_of(&path, v, up)), &mut problems);
+    let density = given("texel_density").map(|v| density_of(&path, v));
+    let texel_density = taken(Setting::TexelDensity, density, &mut problems);
     ExhibitSettings { pose: ModelPose { up, front }, texel_density, problems }
 }
 
 /// The value of a key that was given and could be taken; a problem for one that could not.
-fn taken<T>(given: Option<anyhow::Result<T>>, problems: &mut Vec<anyhow::Error>) -> Option<T> {
-    given?.map_err(|e| problems.push(e)).ok()
+fn taken<T>(
+    about: Setting,
+    given: Option<anyhow::Result<T>>,
+    problems: &mut Vec<(Setting, anyhow::Error)>,
+) -> Option<T> {
+    given?.map_err(|e| problems.push((about, e))).ok()
 }
 
 /// An axis by its name in `exhibit.toml`.
@@ -438,28 +480,34 @@ fn density_of(path: &Path, value: &toml::Value) -> anyhow::Result<f32> {
 /// How the kiosk imports an exhibit's scan: the default settings of `kiosk import`, but for the
 /// samples per texel of a textured model, which `exhibit.toml` may set (`texel_density = 0.5`:
 /// one sample per 2 × 2 texels, for an atlas finer than the kiosk needs; more than 0, at most
-/// 64). A changed setting imports the scan again. Any problem of the file is an error (the kiosk
-/// itself imports with what [`exhibit_settings`] could take).
+/// 64). A changed setting imports the scan again. A problem of the file that is about the
+/// density (or the file, or a key it does not know) is an error (the kiosk itself imports with
+/// what [`exhibit_settings`] could take).
 pub fn import_options(dir: &Path) -> anyhow::Result<ImportOptions> {
-    Ok(exhibit_settings(dir).strict()?.import_options())
+    Ok(exhibit_settings(dir).strict(&[Setting::TexelDensity])?.import_options())
 }
 
-/// `exhibit.toml`'s text for `pose`, keeping the other settings the exhibit's file has (the
-/// authoring tool rewrites the pose alone).
+/// `exhibit.toml`'s text for `pose`, keeping every other key the exhibit's file has as it has it
+/// (the authoring tool rewrites the pose alone; a key the kiosk cannot take stays for the curator
+/// to mend). A file that is not TOML keeps nothing but the pose.
 pub fn exhibit_toml(dir: &Path, pose: &ModelPose) -> String {
     let mut text = pose.to_toml();
-    if let Some(d) = exhibit_settings(dir).texel_density {
-        text += "# Samples per texel of the model's textures when the kiosk imports it.\n";
-        text += &format!("texel_density = {d:?}\n");
+    let file = std::fs::read_to_string(dir.join("exhibit.toml")).unwrap_or_default();
+    let mut rest = toml::from_str::<toml::Table>(&file).unwrap_or_default();
+    rest.retain(|key, _| key != "up" && key != "front");
+    if let Some(rest) = toml::to_string(&rest).ok().filter(|r| !r.is_empty()) {
+        text += "# The exhibit's other settings (texel_density: samples per texel of its textures).\n";
+        text += &rest;
     }
     text
 }
 
-/// Reads [`ModelPose`] from an exhibit directory's `exhibit.toml`; any problem of the file is an
-/// error (the kiosk and the authoring tool show the model in [`exhibit_settings`]'s pose, with
-/// what the file could give, beside the problems).
+/// Reads [`ModelPose`] from an exhibit directory's `exhibit.toml`; a problem of the file that is
+/// about the pose (or the file, or a key it does not know) is an error (the kiosk and the
+/// authoring tool show the model in [`exhibit_settings`]'s pose, with what the file could give,
+/// beside the problems).
 pub fn model_pose(dir: &Path) -> anyhow::Result<ModelPose> {
-    Ok(exhibit_settings(dir).strict()?.pose)
+    Ok(exhibit_settings(dir).strict(&[Setting::Up, Setting::Front])?.pose)
 }
 
 /// The named axis `d` is, to within rounding.
@@ -833,7 +881,7 @@ mod tests {
         let settings = |text: &str| {
             std::fs::write(&file, text).expect("write");
             let s = exhibit_settings(&dir);
-            let problems: Vec<String> = s.problems.iter().map(|e| format!("{e:#}")).collect();
+            let problems = s.messages();
             (s.pose, s.texel_density, problems)
         };
         // A misspelt key beside a stated up and density: both kept, the key named.
@@ -850,13 +898,23 @@ mod tests {
         let (pose, _, problems) = settings("up = [0.0, 0.0, 0.0]\nfront = \"z\"\n");
         assert_eq!(pose, ModelPose { up: glam::DVec3::Y, front: Some(glam::DVec3::Z) });
         assert!(problems.len() == 1 && problems[0].contains("up = [0, 0, 0]"), "{problems:?}");
-        // The strict readers fail on any of it; the kiosk imports with what could be taken.
+        // Each message says what is done about it.
+        assert!(problems[0].ends_with("the model is shown with +Y up"), "{problems:?}");
+        let (_, _, problems) = settings("texel_density = 0\n");
+        assert!(problems[0].ends_with("imported at the default samples per texel"), "{problems:?}");
+        // The strict readers fail on their own keys, a key they do not know, or the file; the
+        // kiosk imports with what could be taken.
+        assert!(model_pose(&dir).is_ok() && import_options(&dir).is_err());
+        settings("up = \"north\"\ntexel_density = 2\n");
+        assert!(model_pose(&dir).is_err() && import_options(&dir).is_ok());
         settings("frnt = 1\ntexel_density = 0.25\n");
         assert!(model_pose(&dir).is_err() && import_options(&dir).is_err());
         assert_eq!(exhibit_settings(&dir).import_options().read.texel_density, 0.25);
-        // The authoring tool's rewrite of the pose keeps the density that could be taken.
+        // The authoring tool's rewrite of the pose keeps every other key as the file has it.
         let rewritten = exhibit_toml(&dir, &ModelPose { up: glam::DVec3::Z, front: None });
-        assert!(rewritten.contains("texel_density = 0.25") && !rewritten.contains("frnt"), "{rewritten}");
+        assert!(rewritten.contains("texel_density = 0.25") && rewritten.contains("frnt = 1"), "{rewritten}");
+        std::fs::write(&file, &rewritten).expect("write");
+        assert_eq!(exhibit_settings(&dir).pose.up, glam::DVec3::Z, "{rewritten}");
     }
 
     #[test]

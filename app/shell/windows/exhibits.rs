@@ -76,11 +76,8 @@ pub fn load_exhibits(config: &Config) -> anyhow::Result<Vec<Exhibit>> {
         // What exhibit.toml could give: a key it could not take is left at its default.
         let settings = kiosk_content::exhibit::exhibit_settings(&dir);
         let pose = settings.pose;
-        for e in &settings.problems {
-            tracing::error!(
-                "{e:#}; the model is shown with {} up",
-                kiosk_content::exhibit::up_label(pose.up)
-            );
+        for message in settings.messages() {
+            tracing::error!("{message}");
         }
         tracing::info!("exhibit {}: {} samples", dir.display(), store.header().leaf_point_count);
         out.push(Exhibit {
