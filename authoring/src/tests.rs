@@ -208,7 +208,9 @@ fn a_curator_turns_the_model_upright_and_the_kiosk_reads_it() {
     let (broken, problems) = open(dir.path()).expect("opens all the same");
     assert_eq!(broken.pose.up, DVec3::Y);
     assert!(
-        problems.iter().any(|p| p.msg.contains("diagonal") && p.msg.ends_with("the model is shown with +Y up")),
+        problems
+            .iter()
+            .any(|p| p.msg.contains("diagonal") && p.msg.ends_with("the model is shown with +Y up")),
         "{problems:?}"
     );
 }
