@@ -380,19 +380,8 @@ const KEYS: [&str; 3] = ["up", "front", "texel_density"];
 /// Reads an exhibit directory's `exhibit.toml` ([`ExhibitSettings`]).
 pub fn exhibit_settings(dir: &Path) -> ExhibitSettings {
     let path = dir.join("exhibit.toml");
-    let mut problems = Vec::new();
-    let table = match std::fs::read_to_string(&path) {
-        Ok(text) => toml::from_str::<toml::Table>(&text).unwrap_or_else(|e| {
-            problems.push((Setting::File, anyhow::Error::new(e).context(format!("{}", path.display()))));
-            toml::Table::new()
-        }),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => toml::Table::new(),
-        Err(e) => {
-            let e = anyhow::Error::new(e).context(format!("cannot read {}", path.display()));
-            problems.push((Setting::File, e));
-            toml::Table::new()
-        }
-    };
+    let (table, unread) = read_table(&path);
+    let mut problems: Vec<_> = unread.into_iter().map(|e| (Setting::File, e)).collect();
     for key in table.keys().filter(|k| !KEYS.contains(&k.as_str())) {
         problems.push((
             Setting::Unknown,
@@ -409,6 +398,21 @@ pub fn exhibit_settings(dir: &Path) -> ExhibitSettings {
     let density = given("texel_density").map(|v| density_of(&path, v));
     let texel_density = taken(Setting::TexelDensity, density, &mut problems);
     ExhibitSettings { pose: ModelPose { up, front }, texel_density, problems }
+}
+
+/// The keys of the TOML file `path`: none when it is missing, none beside the error when it
+/// cannot be read or is not TOML.
+fn read_table(path: &Path) -> (toml::Table, Option<anyhow::Error>) {
+    let parsed = match std::fs::read_to_string(path) {
+        Ok(text) => toml::from_str::<toml::Table>(&text)
+            .map_err(|e| anyhow::Error::new(e).context(format!("{}", path.display()))),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(toml::Table::new()),
+        Err(e) => Err(anyhow::Error::new(e).context(format!("cannot read {}", path.display()))),
+    };
+    match parsed {
+        Ok(table) => (table, None),
+        Err(e) => (toml::Table::new(), Some(e)),
+    }
 }
 
 /// The value of a key that was given and could be taken; a problem for one that could not.
@@ -492,8 +496,7 @@ pub fn import_options(dir: &Path) -> anyhow::Result<ImportOptions> {
 /// to mend). A file that is not TOML keeps nothing but the pose.
 pub fn exhibit_toml(dir: &Path, pose: &ModelPose) -> String {
     let mut text = pose.to_toml();
-    let file = std::fs::read_to_string(dir.join("exhibit.toml")).unwrap_or_default();
-    let mut rest = toml::from_str::<toml::Table>(&file).unwrap_or_default();
+    let (mut rest, _) = read_table(&dir.join("exhibit.toml"));
     rest.retain(|key, _| key != "up" && key != "front");
     if let Some(rest) = toml::to_string(&rest).ok().filter(|r| !r.is_empty()) {
         text += "# The exhibit's other settings (texel_density: samples per texel of its textures).\n";
