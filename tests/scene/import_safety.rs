@@ -117,6 +117,34 @@ fn an_import_onto_its_input_or_of_a_store_is_refused() {
 }
 
 #[test]
+fn an_import_onto_a_file_that_is_not_a_store_is_refused_and_leaves_it_untouched() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let notes = dir.path().join("notes.txt");
+    std::fs::write(&notes, "the curator's notes\n").expect("write");
+    let o = kiosk().args(["import", "--quiet"]).arg(dragon()).arg("-o").arg(&notes).output().expect("run");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("notes.txt: exists and is not an IsoKiosk store"), "{err}");
+    assert_eq!(std::fs::read_to_string(&notes).expect("read"), "the curator's notes\n");
+    // Refused before anything is written: no lock, no work directory.
+    assert_eq!(names(dir.path()), ["notes.txt"]);
+    // A directory is refused too; a store is replaced (see the first test).
+    let o =
+        kiosk().args(["import", "--quiet"]).arg(dragon()).arg("-o").arg(dir.path()).output().expect("run");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("exists and is not a file"), "{err}");
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn an_output_directory_the_import_cannot_write_in_is_named() {
+    // Nothing can be made in /proc, not even by root (for whom a read-only directory is writable).
+    let o = kiosk().args(["import", "--quiet"]).arg(dragon()).args(["-o", "/proc/isokiosk.kstore"]).output();
+    let err = String::from_utf8_lossy(&o.expect("run").stderr).into_owned();
+    assert!(err.contains("cannot write in /proc, the output's directory"), "{err}");
+}
+
+#[test]
 fn a_scan_with_a_non_finite_coordinate_names_the_row_and_the_flag_that_skips_it() {
     let dir = tempfile::tempdir().expect("temp dir");
     let scan = dir.path().join("nan.ply");
@@ -141,6 +169,19 @@ fn a_scan_with_a_non_finite_coordinate_names_the_row_and_the_flag_that_skips_it(
         .output()
         .expect("run kiosk");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // When every row is dropped, the error says so, not only that the model is empty.
+    std::fs::write(
+        &scan,
+        "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n\
+         end_header\nnan 0 0\n0 inf 0\n",
+    )
+    .expect("write");
+    let o = kiosk().args(["import", "--quiet", "--drop-invalid"]).arg(&scan).arg("-o").arg(&out).output();
+    let err = String::from_utf8_lossy(&o.as_ref().expect("run kiosk").stderr).into_owned();
+    assert!(
+        err.contains("2 vertex row(s) with non-finite coordinates dropped") && err.contains("no samples"),
+        "{err}"
+    );
 }
 
 #[test]

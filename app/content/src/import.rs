@@ -70,12 +70,14 @@ impl std::fmt::Display for ImportReport {
         let b = &self.build;
         write!(
             f,
-            "{} samples read → {} distinct; {} nodes, {} levels, {} samples in all levels; \
+            "{} samples read → {} distinct; {} node{}, {} level{}, {} samples in all levels; \
              {:.1} MB; {:.2} s; {:.0} samples/s",
             b.input_points,
             b.leaf_points,
             b.nodes,
+            if b.nodes == 1 { "" } else { "s" },
             b.levels,
+            if b.levels == 1 { "" } else { "s" },
             b.total_points,
             b.bytes as f64 / 1e6,
             self.seconds,
@@ -92,6 +94,8 @@ pub fn import(
     opts: &ImportOptions,
     progress: &mut Progress<'_>,
 ) -> anyhow::Result<ImportReport> {
+    check_input(scan, out)?;
+    check_replaceable(out)?;
     let lock = OutputLock::acquire(out)?;
     import_locked(scan, &lock, opts, progress)
 }
@@ -117,7 +121,15 @@ pub fn import_locked(
             Stage::Distribute(done, total) => progress(Phase::Sorting, done, total),
             Stage::Build(done, total) => progress(Phase::Building, done, total),
         })
-        .with_context(|| format!("{}: building {}", scan.display(), lock.out.display()))?;
+        .with_context(|| {
+            // What the reader dropped or tolerated may be why nothing could be built.
+            let read = if report.warnings.is_empty() {
+                String::new()
+            } else {
+                format!(" (the reading: {})", report.warnings.join("; "))
+            };
+            format!("{}: building {}{read}", scan.display(), lock.out.display())
+        })?;
     std::fs::rename(&staged, &lock.out).with_context(|| format!("cannot write {}", lock.out.display()))?;
     drop(work);
     Ok(ImportReport {
@@ -134,6 +146,35 @@ fn check_input(scan: &Path, out: &Path) -> anyhow::Result<()> {
         anyhow::ensure!(a != b, "{}: the output is the input; choose another output file", out.display());
     }
     // A store given as the scan is told apart by the readers' format detection.
+    Ok(())
+}
+
+/// Refuses an output that exists and is not a store: an `-o` naming a scan or a document by
+/// mistake must not destroy it. (The kiosk's cache, through [`import_locked`], replaces its own
+/// files, damaged ones too.)
+fn check_replaceable(out: &Path) -> anyhow::Result<()> {
+    use std::io::Read;
+    let meta = match std::fs::metadata(out) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(e).with_context(|| format!("cannot inspect {}", out.display())),
+    };
+    let refuse = |what: &str| {
+        anyhow::anyhow!(
+            "{}: {what}; it is not replaced (remove it first, or choose another output file)",
+            out.display()
+        )
+    };
+    if !meta.is_file() {
+        return Err(refuse("exists and is not a file"));
+    }
+    let mut head = Vec::with_capacity(kiosk_core::scene::store::MAGIC.len());
+    std::fs::File::open(out)
+        .and_then(|f| f.take(kiosk_core::scene::store::MAGIC.len() as u64).read_to_end(&mut head))
+        .with_context(|| format!("cannot read {}", out.display()))?;
+    if head != kiosk_core::scene::store::MAGIC {
+        return Err(refuse("exists and is not an IsoKiosk store"));
+    }
     Ok(())
 }
 
@@ -160,12 +201,16 @@ impl OutputLock {
         let (dir, name) = split(out)?;
         std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
         let path = dir.join(format!(".{name}.lock"));
-        let file = std::fs::OpenOptions::new()
-            .create(true)
-            .truncate(false)
-            .write(true)
-            .open(&path)
-            .with_context(|| format!("cannot create the lock {}", path.display()))?;
+        let file = match std::fs::OpenOptions::new().create(true).truncate(false).write(true).open(&path) {
+            Ok(file) => file,
+            // A lock file another user left (imports leave theirs) is locked through a handle
+            // that only reads: a lock needs no write access.
+            Err(e) if e.kind() == std::io::ErrorKind::PermissionDenied && path.is_file() => {
+                std::fs::File::open(&path)
+                    .with_context(|| format!("cannot open the lock {}", path.display()))?
+            }
+            Err(e) => return Err(cannot_write_in(&dir, &path, e)),
+        };
         match file.try_lock() {
             Ok(()) => {}
             Err(std::fs::TryLockError::WouldBlock) if !wait => return Ok(None),
@@ -209,6 +254,15 @@ fn split(out: &Path) -> anyhow::Result<(PathBuf, String)> {
     Ok((dir.to_path_buf(), name.to_string()))
 }
 
+/// An import's files (its lock, its work directory) cannot be made in the output's directory.
+fn cannot_write_in(dir: &Path, file: &Path, e: std::io::Error) -> anyhow::Error {
+    let name = file.file_name().map_or(file.as_os_str(), |n| n).to_string_lossy();
+    anyhow::anyhow!(
+        "cannot write in {}, the output's directory: {e} (an import makes {name} there beside the store)",
+        dir.display()
+    )
+}
+
 /// Work directories of the imports running in this process (see [`remove_work_dirs`]).
 static ACTIVE: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 
@@ -229,7 +283,7 @@ impl WorkDir {
     fn create(out: &Path) -> anyhow::Result<Self> {
         let (dir, name) = split(out)?;
         let path = dir.join(format!(".{name}.import-{}", std::process::id()));
-        std::fs::create_dir_all(&path).with_context(|| format!("cannot create {}", path.display()))?;
+        std::fs::create_dir_all(&path).map_err(|e| cannot_write_in(&dir, &path, e))?;
         ACTIVE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(path.clone());
         Ok(Self { path })
     }

@@ -400,6 +400,9 @@ impl Builder {
                 (root.ok_or_else(|| BuildError::Degenerate("no samples reached any region".into()))?, chunks)
             }
         };
+        // Every sample is in the tree (duplicates merged: the count built falls short of the
+        // count read by as many).
+        (ctx.progress)(Stage::Build(ctx.total, ctx.total));
         let clock = std::time::Instant::now();
         let mut timings = ctx.timings;
         let largest_region = ctx.largest_region;
