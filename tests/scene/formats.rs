@@ -133,6 +133,28 @@ fn broken_survey_files_and_other_formats_are_clear_errors() {
     std::fs::write(&unknown, b"\x01\x02 not a scan").expect("write");
     let e = read_all(&unknown, &ReadOptions::default()).expect_err("unknown").to_string();
     assert!(e.contains("glTF 2.0") && e.contains("LAS and LAZ") && e.contains("E57"), "{e}");
+    // A GLB cut short says so, with its declared and actual lengths.
+    let whole = std::fs::read(data("BoxTextured-meshopt.glb")).expect("glb");
+    for cut in [12, 1500, whole.len() - 1] {
+        let path = dir.path().join("cut.glb");
+        std::fs::write(&path, &whole[..cut]).expect("write");
+        let e = read_all(&path, &ReadOptions::default()).expect_err("cut GLB").to_string();
+        let expect =
+            format!("GLB header: the file should be {} bytes long and has {cut} (cut short?)", whole.len());
+        assert!(e.contains(&expect), "{cut}: {e}");
+    }
+    // A survey file whose signature is damaged, or an empty file, is not blamed on PLY.
+    for (name, bytes, expect) in [
+        ("scan.las", &b"LASX rest of a header"[..], "does not start with the LAS signature \"LASF\""),
+        ("scan.laz", b"", "the file is empty (0 bytes)"),
+        ("scan.e57", b"ASTM-E75 rest of a header", "does not start with the E57 signature \"ASTM-E57\""),
+        ("scan.ply", b"", "the file is empty (0 bytes)"),
+    ] {
+        let path = dir.path().join(name);
+        std::fs::write(&path, bytes).expect("write");
+        let e = read_all(&path, &ReadOptions::default()).expect_err(name).to_string();
+        assert!(e.contains(expect) && !e.contains("'ply'"), "{name}: {e}");
+    }
     let truncated = dir.path().join("cut.laz");
     let bytes = std::fs::read(data("simple.laz")).expect("laz");
     std::fs::write(&truncated, &bytes[..bytes.len() / 2]).expect("write");
@@ -146,6 +168,23 @@ fn broken_survey_files_and_other_formats_are_clear_errors() {
     std::fs::write(&damaged, &bytes).expect("write");
     let e = read_all(&damaged, &ReadOptions::default()).expect_err("damaged LAZ").to_string();
     assert!(e.starts_with("LAS: points "), "{e}");
+    // A header whose version, scale or offset no point could be read with is named as such, not
+    // blamed on the points (a scale of 0 would otherwise make a flat model without a word).
+    let autzen = std::fs::read(data("autzen.las")).expect("las");
+    let cases: [(usize, &[u8], &str); 4] = [
+        (25, &[9], "LAS version 1.9: the importer reads LAS 1.0 to 1.4"),
+        (131, &0f64.to_le_bytes(), "the header's X scale factor is 0: every X would be the offset"),
+        (147, &f64::NAN.to_le_bytes(), "the header's Z scale factor is NaN"),
+        (163, &f64::INFINITY.to_le_bytes(), "the header's Y offset is inf"),
+    ];
+    for (at, value, expect) in cases {
+        let mut bytes = autzen.clone();
+        bytes[at..at + value.len()].copy_from_slice(value);
+        let path = dir.path().join("header.las");
+        std::fs::write(&path, &bytes).expect("write");
+        let e = read_all(&path, &ReadOptions::default()).expect_err(expect).to_string();
+        assert!(e.starts_with("LAS: ") && e.contains(expect), "{e}");
+    }
 }
 
 /// The BoxTextured sample (Khronos, `box-textured/` in SOURCES.md): its triangles in the model's
@@ -277,6 +316,9 @@ fn texture_colour_arrives_in_the_store() {
         reading[first_total]
     );
     assert!(reading.last().is_some_and(|&&(_, done, total)| done == total), "{:?}", reading.last());
+    // The building's bar ends full, though duplicates merged make fewer samples than were read.
+    let building = seen.iter().rev().find(|(p, ..)| *p == Phase::Building).expect("building");
+    assert!(building.1 == building.2 && building.2 == 12 * 91 * 91, "{building:?}");
     let store = kiosk_content::open_store(&out).expect("store");
     let tris = box_triangles();
     let img = image::open(data("box-textured/Cesium Logo Flat.png")).expect("png").to_rgba8();
@@ -400,6 +442,12 @@ fn a_textured_ply_without_its_image_names_it() {
     .expect("vertices");
     assert_eq!(n, 502);
     assert!(rep.warnings.iter().any(|w| w.contains("fuze uv.jpg")), "{:?}", rep.warnings);
+    // Texture coordinates with no image named at all (trimesh's export of BoxTextured): read
+    // uncoloured, and the warning says why.
+    let ply = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/ply-corpus/ok/trimesh/BoxTextured.ply");
+    let (_, rep) = read_all(&ply, &ReadOptions::default()).expect("box");
+    assert!(!rep.has_colors);
+    assert!(rep.warnings.iter().any(|w| w.contains("no `comment TextureFile NAME`")), "{:?}", rep.warnings);
 }
 
 #[test]

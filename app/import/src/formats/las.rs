@@ -33,7 +33,7 @@ pub enum LasError<E = std::convert::Infallible> {
         cause: ::las::Error,
     },
     /// A point with a non-finite coordinate.
-    #[error("point {index}: non-finite coordinate ({x}, {y}, {z})")]
+    #[error("point {index}: non-finite coordinate ({})", super::coordinates(*.x, *.y, *.z))]
     NonFinite {
         /// 1-based index.
         index: u64,
@@ -117,6 +117,12 @@ fn check_lengths<E>(path: &Path) -> Result<bool, LasError<E>> {
     let u16_at = |o: usize| u16::from_le_bytes([h[o], h[o + 1]]);
     let u32_at = |o: usize| u32::from_le_bytes([h[o], h[o + 1], h[o + 2], h[o + 3]]);
     let u64_at = |o: usize| u64::from_le_bytes(h[o..o + 8].try_into().unwrap_or([0; 8]));
+    if h[24] != 1 || h[25] > 4 {
+        return Err(LasError::Corrupt(format!(
+            "LAS version {}.{}: the importer reads LAS 1.0 to 1.4 (and LAZ files of those)",
+            h[24], h[25]
+        )));
+    }
     let (minor, header_size) = (h[25], u64::from(u16_at(94)));
     let (offset, vlrs) = (u64::from(u32_at(96)), u32_at(100));
     let (format, record_len) = (h[104], u64::from(u16_at(105)));
@@ -169,7 +175,29 @@ fn check_lengths<E>(path: &Path) -> Result<bool, LasError<E>> {
             )?;
         }
     }
+    check_transforms(&h)?;
     Ok(parallel)
+}
+
+/// Checks the header's scale factors and offsets (from the first 227 bytes of `h`): a point's
+/// coordinate is its integer times the scale plus the offset, so a scale of 0 would put every
+/// point on one plane and a non-finite one would make every coordinate NaN, with nothing wrong
+/// in the points themselves.
+fn check_transforms<E>(h: &[u8]) -> Result<(), LasError<E>> {
+    let f64_at = |o: usize| f64::from_le_bytes(h[o..o + 8].try_into().unwrap_or([0; 8]));
+    for (k, axis) in ["X", "Y", "Z"].into_iter().enumerate() {
+        let (scale, offset) = (f64_at(131 + 8 * k), f64_at(155 + 8 * k));
+        if !scale.is_finite() || scale == 0.0 {
+            return Err(LasError::Corrupt(format!(
+                "the header's {axis} scale factor is {scale}: every {axis} would be {}",
+                if scale == 0.0 { "the offset (a flat model)" } else { "meaningless" }
+            )));
+        }
+        if !offset.is_finite() {
+            return Err(LasError::Corrupt(format!("the header's {axis} offset is {offset}")));
+        }
+    }
+    Ok(())
 }
 
 /// The smallest point record (format 0), in bytes. Each chunk of a LAZ file starts with its

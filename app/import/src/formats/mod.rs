@@ -43,6 +43,9 @@ pub enum DetectError {
     /// The file cannot be read.
     #[error("read error: {0}")]
     Io(std::io::Error),
+    /// A regular file of no bytes.
+    #[error("the file is empty (0 bytes): not a scan")]
+    Empty,
     /// A format this build does not read.
     #[error("{what}: not a format the importer reads; it reads {SUPPORTED}")]
     Unsupported {
@@ -63,6 +66,16 @@ impl From<std::io::Error> for DetectError {
 /// for an error, whichever decoder found it.
 pub(crate) const CUT_SHORT: &str = "the file ends before the data its header announces (cut short?)";
 
+/// A point's coordinates for a message: each as Rust writes it, or in scientific notation where
+/// that would take more than 24 characters (the garbage of a misread file can be 1e-300).
+pub(crate) fn coordinates(x: f64, y: f64, z: f64) -> String {
+    let one = |v: f64| {
+        let plain = v.to_string();
+        if plain.len() <= 24 { plain } else { format!("{v:e}") }
+    };
+    format!("{}, {}, {}", one(x), one(y), one(z))
+}
+
 /// The formats the importer reads, for error messages.
 pub const SUPPORTED: &str = "PLY (.ply, .ply.gz), OBJ (.obj, .obj.gz, with MTL materials), glTF 2.0 (.gltf, .glb), \
      LAS and LAZ (.las, .laz) and E57 (.e57)";
@@ -71,6 +84,9 @@ pub const SUPPORTED: &str = "PLY (.ply, .ply.gz), OBJ (.obj, .obj.gz, with MTL m
 pub fn detect(path: &Path) -> Result<Format, DetectError> {
     let mut head = [0u8; 4096];
     let n = read_head(path, &mut head)?;
+    if n == 0 && std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() == 0) {
+        return Err(DetectError::Empty);
+    }
     let head = &head[..n];
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("").to_ascii_lowercase();
     let unsupported = |what| Err(DetectError::Unsupported { what });
@@ -99,6 +115,12 @@ pub fn detect(path: &Path) -> Result<Format, DetectError> {
     if name.ends_with(".glb") {
         return unsupported("a file named .glb without the glTF binary header");
     }
+    if name.ends_with(".las") || name.ends_with(".laz") {
+        return unsupported("a file named .las or .laz that does not start with the LAS signature \"LASF\"");
+    }
+    if name.ends_with(".e57") {
+        return unsupported("a file named .e57 that does not start with the E57 signature \"ASTM-E57\"");
+    }
     if head.starts_with(&[0x89, b'P', b'N', b'G']) || head.starts_with(&[0xff, 0xd8, 0xff]) {
         return unsupported("an image");
     }
@@ -111,7 +133,7 @@ pub fn detect(path: &Path) -> Result<Format, DetectError> {
         return Ok(Format::Obj);
     }
     if base.ends_with(".ply") || head.starts_with(&[0x1f, 0x8b]) || head.is_empty() {
-        // An empty or gzip'd file without a telling name: the PLY reader says what is wrong.
+        // A gzip'd file without a telling name, or a pipe: the PLY reader says what is wrong.
         return Ok(Format::Ply);
     }
     unsupported("an unknown file")
@@ -173,7 +195,7 @@ pub enum ReadError<E = std::convert::Infallible> {
     #[error(transparent)]
     Surface(#[from] surface::SurfaceError),
     /// A sample has a non-finite coordinate.
-    #[error("{element} row {row}{}: non-finite coordinate ({x}, {y}, {z})", .line.map(|l| format!(" (line {l})")).unwrap_or_default())]
+    #[error("{element} row {row}{}: non-finite coordinate ({})", .line.map(|l| format!(" (line {l})")).unwrap_or_default(), coordinates(*.x, *.y, *.z))]
     NonFinite {
         /// Element ("vertex" or "v" for OBJ).
         element: String,
@@ -292,4 +314,13 @@ pub fn read_ply_bytes(bytes: &[u8], opts: &ReadOptions) -> Result<(Vec<InputPoin
         Ok(())
     })?;
     Ok((pts, rep))
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn coordinates_in_messages_stay_short() {
+        assert_eq!(super::coordinates(1.0, f64::NAN, -0.25), "1, NaN, -0.25");
+        assert_eq!(super::coordinates(2.5e-300, f64::INFINITY, -1.5e250), "2.5e-300, inf, -1.5e250");
+    }
 }

@@ -362,11 +362,14 @@ pub mod mtl {
             .collect())
     }
 
-    /// The files an `mtllib` line names: the whole rest of the line if that is a file (a name
-    /// with spaces), else its words.
+    /// The files an `mtllib` line names: the whole rest of the line (without quotes around it) if
+    /// that is a file or if its words are not all `.mtl` names (a name with spaces, found or
+    /// not: the warning names it whole), else its words.
     fn library_files(dir: &Path, names: &str) -> Vec<PathBuf> {
+        let names = names.trim_matches('"');
         let whole = dir.join(names.replace('\\', "/"));
-        if whole.is_file() || !names.contains(char::is_whitespace) {
+        let several = names.split_whitespace().all(|n| n.to_ascii_lowercase().ends_with(".mtl"));
+        if whole.is_file() || !names.contains(char::is_whitespace) || !several {
             return vec![whole];
         }
         names.split_whitespace().map(|n| dir.join(n.replace('\\', "/"))).collect()
@@ -499,6 +502,20 @@ pub mod mtl {
     #[cfg(test)]
     mod tests {
         use super::*;
+
+        #[test]
+        fn an_mtllib_line_names_one_file_with_spaces_or_several_mtl_files() {
+            let dir = tempfile::tempdir().expect("temp dir");
+            let d = dir.path();
+            let names = |line: &str| -> Vec<PathBuf> { library_files(d, line) };
+            // Missing or not, a name with spaces is one file (and a missing one is named whole).
+            assert_eq!(names("box textured.mtl"), [d.join("box textured.mtl")]);
+            assert_eq!(names("\"box textured.mtl\""), [d.join("box textured.mtl")]);
+            std::fs::write(d.join("a b.mtl"), "").expect("write");
+            assert_eq!(names("a b.mtl"), [d.join("a b.mtl")]);
+            // Words that are all .mtl names, not one file: several libraries.
+            assert_eq!(names("a.mtl B.MTL"), [d.join("a.mtl"), d.join("B.MTL")]);
+        }
 
         #[test]
         fn map_options_and_names_with_spaces() {

@@ -96,6 +96,13 @@ fn load<E>(bytes: &[u8], dir: &Path) -> Result<(Surface, ReadReport), ReadError<
     if let Some(header) = bytes.strip_prefix(b"glTF") {
         let declared = header.get(4..8).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
         match declared {
+            Some(n) if u64::from(n) > bytes.len() as u64 => {
+                return Err(GltfError::Invalid(format!(
+                    "GLB header: the file should be {n} bytes long and has {} (cut short?)",
+                    bytes.len()
+                ))
+                .into());
+            }
             Some(n) if n >= 12 => {}
             Some(n) => {
                 return Err(GltfError::Invalid(format!(

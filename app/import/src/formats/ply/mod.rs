@@ -135,7 +135,15 @@ pub fn read_ply_in<E>(
                 .push(format!("texture '{name}' unused: the file has no texture coordinates on faces"));
             None
         }
-        (None, _) => None,
+        (None, true) => {
+            report.warnings.push(
+                "texture coordinates but no `comment TextureFile NAME` naming an image: imported without \
+                 the texture's colours"
+                    .into(),
+            );
+            None
+        }
+        (None, false) => None,
     };
     if header.texture_files.len() > 1 && face_texnumber.is_none() {
         report.warnings.push(format!(

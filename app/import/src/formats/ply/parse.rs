@@ -216,7 +216,7 @@ pub enum PlyError {
         msg: String,
     },
     /// A vertex with a non-finite coordinate (which [`crate::ReadOptions::drop_invalid`] drops).
-    #[error("element 'vertex' row {row}{}: non-finite coordinate ({x}, {y}, {z})", .line.map(|l| format!(" (line {l})")).unwrap_or_default())]
+    #[error("element 'vertex' row {row}{}: non-finite coordinate ({})", .line.map(|l| format!(" (line {l})")).unwrap_or_default(), crate::formats::coordinates(*.x, *.y, *.z))]
     NonFinite {
         /// 1-based row within the vertex element.
         row: u64,
