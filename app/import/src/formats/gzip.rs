@@ -11,7 +11,19 @@ use std::path::Path;
 pub fn open(path: &Path) -> std::io::Result<Box<dyn BufRead + Send>> {
     let mut f = BufReader::with_capacity(1 << 20, std::fs::File::open(path)?);
     let gz = f.fill_buf()?.starts_with(&[0x1f, 0x8b]);
-    Ok(if gz { ReadAhead::start(flate2::bufread::MultiGzDecoder::new(f)) } else { Box::new(f) })
+    Ok(if gz { ReadAhead::start(Inflate(flate2::bufread::MultiGzDecoder::new(f))) } else { Box::new(f) })
+}
+
+/// The gzip decoder, whose errors ("incomplete deflate stream") say that the compressed file is
+/// at fault, not the text in it.
+struct Inflate<R>(R);
+
+impl<R: std::io::Read> std::io::Read for Inflate<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        self.0.read(buf).map_err(|e| {
+            std::io::Error::new(e.kind(), format!("gzip: {e} (the compressed file is damaged or cut short)"))
+        })
+    }
 }
 
 /// A reader read on a thread of its own, a few blocks ahead of its consumer. A failure comes
