@@ -452,7 +452,7 @@ fn a_textured_ply_without_its_image_names_it() {
     .expect("vertices");
     assert_eq!(n, 502);
     assert!(rep.warnings.iter().any(|w| w.contains("fuze uv.jpg")), "{:?}", rep.warnings);
-    // Texture coordinates with no image named at all (trimesh's export of BoxTextured): read
+    // Texture coordinates with no image named at all (Blender's export of BoxTextured): read
     // uncoloured, and the warning says why.
     let ply = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/ply-corpus/ok/trimesh/BoxTextured.ply");
     let (_, rep) = read_all(&ply, &ReadOptions::default()).expect("box");

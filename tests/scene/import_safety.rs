@@ -128,6 +128,11 @@ fn an_import_onto_a_file_that_is_not_a_store_is_refused_and_leaves_it_untouched(
     assert_eq!(std::fs::read_to_string(&notes).expect("read"), "the curator's notes\n");
     // Refused before anything is written: no lock, no work directory.
     assert_eq!(names(dir.path()), ["notes.txt"]);
+    // An empty file (made by `mktemp` or `touch` for the store) has nothing to lose: replaced.
+    let empty = dir.path().join("empty.kstore");
+    std::fs::write(&empty, b"").expect("write");
+    let o = kiosk().args(["import", "--quiet"]).arg(dragon()).arg("-o").arg(&empty).output().expect("run");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     // A directory is refused too; a store is replaced (see the first test).
     let o =
         kiosk().args(["import", "--quiet"]).arg(dragon()).arg("-o").arg(dir.path()).output().expect("run");

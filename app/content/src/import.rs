@@ -121,14 +121,19 @@ pub fn import_locked(
             Stage::Distribute(done, total) => progress(Phase::Sorting, done, total),
             Stage::Build(done, total) => progress(Phase::Building, done, total),
         })
-        .with_context(|| {
-            // What the reader dropped or tolerated may be why nothing could be built.
-            let read = if report.warnings.is_empty() {
-                String::new()
-            } else {
-                format!(" (the reading: {})", report.warnings.join("; "))
+        .map_err(|e| {
+            // What the reader dropped or tolerated may be why too little was left to build.
+            let read = match e {
+                kiosk_import::BuildError::Degenerate(_) if !report.warnings.is_empty() => {
+                    format!(" (the reading: {})", report.warnings.join("; "))
+                }
+                _ => String::new(),
             };
-            format!("{}: building {}{read}", scan.display(), lock.out.display())
+            anyhow::Error::new(e).context(format!(
+                "{}: building {}{read}",
+                scan.display(),
+                lock.out.display()
+            ))
         })?;
     std::fs::rename(&staged, &lock.out).with_context(|| format!("cannot write {}", lock.out.display()))?;
     drop(work);
@@ -168,10 +173,16 @@ fn check_replaceable(out: &Path) -> anyhow::Result<()> {
     if !meta.is_file() {
         return Err(refuse("exists and is not a file"));
     }
+    if meta.len() == 0 {
+        // Nothing to lose (a file made by `mktemp` or `touch` for the store).
+        return Ok(());
+    }
     let mut head = Vec::with_capacity(kiosk_core::scene::store::MAGIC.len());
     std::fs::File::open(out)
         .and_then(|f| f.take(kiosk_core::scene::store::MAGIC.len() as u64).read_to_end(&mut head))
-        .with_context(|| format!("cannot read {}", out.display()))?;
+        .with_context(|| {
+            format!("{}: cannot read it to check that it is a store before replacing it", out.display())
+        })?;
     if head != kiosk_core::scene::store::MAGIC {
         return Err(refuse("exists and is not an IsoKiosk store"));
     }

@@ -14,14 +14,20 @@ pub fn open(path: &Path) -> std::io::Result<Box<dyn BufRead + Send>> {
     Ok(if gz { ReadAhead::start(Inflate(flate2::bufread::MultiGzDecoder::new(f))) } else { Box::new(f) })
 }
 
-/// The gzip decoder, whose errors ("incomplete deflate stream") say that the compressed file is
-/// at fault, not the text in it.
+/// The gzip decoder, whose own errors ("incomplete deflate stream") say that the compressed file
+/// is at fault, not the text in it (as data errors: a cut-short stream is not the end of the text
+/// that a reader counting rows would report). The file's I/O errors pass as they are.
 struct Inflate<R>(R);
 
 impl<R: std::io::Read> std::io::Read for Inflate<R> {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        self.0.read(buf).map_err(|e| {
-            std::io::Error::new(e.kind(), format!("gzip: {e} (the compressed file is damaged or cut short)"))
+        use std::io::ErrorKind::{InvalidData, InvalidInput, UnexpectedEof};
+        self.0.read(buf).map_err(|e| match e.kind() {
+            InvalidData | InvalidInput | UnexpectedEof => std::io::Error::new(
+                InvalidData,
+                format!("gzip: {e} (the compressed file is damaged or cut short)"),
+            ),
+            _ => e,
         })
     }
 }

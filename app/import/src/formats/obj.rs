@@ -362,17 +362,20 @@ pub mod mtl {
             .collect())
     }
 
-    /// The files an `mtllib` line names: the whole rest of the line (without quotes around it) if
-    /// that is a file or if its words are not all `.mtl` names (a name with spaces, found or
-    /// not: the warning names it whole), else its words.
+    /// The files an `mtllib` line names (quotes around a name dropped): the whole rest of the
+    /// line if that is a file (a name with spaces) or has no spaces, else its words if one of
+    /// them is a file; when none is, its words if they all end in `.mtl`, else the whole line (so
+    /// that the warning names the one missing file as it is written).
     fn library_files(dir: &Path, names: &str) -> Vec<PathBuf> {
-        let names = names.trim_matches('"');
-        let whole = dir.join(names.replace('\\', "/"));
-        let several = names.split_whitespace().all(|n| n.to_ascii_lowercase().ends_with(".mtl"));
-        if whole.is_file() || !names.contains(char::is_whitespace) || !several {
+        let path = |n: &str| dir.join(n.trim_matches('"').replace('\\', "/"));
+        let whole = path(names);
+        if whole.is_file() || !names.contains(char::is_whitespace) {
             return vec![whole];
         }
-        names.split_whitespace().map(|n| dir.join(n.replace('\\', "/"))).collect()
+        let words: Vec<PathBuf> = names.split_whitespace().map(path).collect();
+        let all_mtl =
+            names.split_whitespace().all(|n| n.trim_matches('"').to_ascii_lowercase().ends_with(".mtl"));
+        if words.iter().any(|w| w.is_file()) || all_mtl { words } else { vec![whole] }
     }
 
     /// The materials a library defines, in order.
@@ -515,6 +518,10 @@ pub mod mtl {
             assert_eq!(names("a b.mtl"), [d.join("a b.mtl")]);
             // Words that are all .mtl names, not one file: several libraries.
             assert_eq!(names("a.mtl B.MTL"), [d.join("a.mtl"), d.join("B.MTL")]);
+            assert_eq!(names("\"a.mtl\" \"b.mtl\""), [d.join("a.mtl"), d.join("b.mtl")]);
+            // Libraries of any name, one of them found: each word is one.
+            std::fs::write(d.join("common.mat"), "").expect("write");
+            assert_eq!(names("parts.mtl common.mat"), [d.join("parts.mtl"), d.join("common.mat")]);
         }
 
         #[test]

@@ -135,7 +135,8 @@ pub fn read_ply_in<E>(
                 .push(format!("texture '{name}' unused: the file has no texture coordinates on faces"));
             None
         }
-        (None, true) => {
+        // A mesh's (a cloud's `u`, `v` may mean something else).
+        (None, true) if face.is_some() => {
             report.warnings.push(
                 "texture coordinates but no `comment TextureFile NAME` naming an image: imported without \
                  the texture's colours"
@@ -143,7 +144,7 @@ pub fn read_ply_in<E>(
             );
             None
         }
-        (None, false) => None,
+        (None, _) => None,
     };
     if header.texture_files.len() > 1 && face_texnumber.is_none() {
         report.warnings.push(format!(
