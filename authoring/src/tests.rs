@@ -125,7 +125,7 @@ fn ids_and_languages_that_would_name_files_outside_the_exhibit_are_refused() {
     let e = p
         .capture(orbit(&p, 0.0), Some("../../escaped"), Some((&gpu, &mut renderer)))
         .expect_err("an id with a path in it");
-    assert!(e.to_string().contains("letters, digits"), "{e}");
+    assert!(e.to_string().contains("ASCII letters (a–z, A–Z, no accents), digits"), "{e}");
     assert!(p.graph.nodes.is_empty());
     let parent = dir.path().parent().expect("parent");
     assert!(!parent.join("escaped.png").exists() && !dir.path().join("thumbs").exists());

@@ -265,7 +265,7 @@ fn one() -> String {
 
 #[derive(Debug, Serialize, Deserialize)]
 struct RawNode {
-    #[serde(rename = "@id")]
+    #[serde(rename = "@id", default)]
     id: String,
     /// Read as text so that a bad value is that node's problem, not the whole file's.
     #[serde(rename = "@importance", default = "one")]
@@ -287,13 +287,13 @@ struct RawNode {
 
 #[derive(Debug, Serialize, Deserialize)]
 struct RawView {
-    #[serde(rename = "@eye")]
+    #[serde(rename = "@eye", default)]
     eye: String,
-    #[serde(rename = "@target")]
+    #[serde(rename = "@target", default)]
     target: String,
-    #[serde(rename = "@up")]
+    #[serde(rename = "@up", default)]
     up: String,
-    #[serde(rename = "@fov")]
+    #[serde(rename = "@fov", default)]
     fov: String,
     #[serde(rename = "@light", default, skip_serializing_if = "Option::is_none")]
     light: Option<String>,
@@ -311,7 +311,7 @@ struct RawText {
 struct RawFile {
     #[serde(rename = "@lang", default, skip_serializing_if = "Option::is_none")]
     lang: Option<String>,
-    #[serde(rename = "@src")]
+    #[serde(rename = "@src", default)]
     src: String,
 }
 
@@ -327,12 +327,124 @@ struct RawRoi {
 
 #[derive(Debug, Serialize, Deserialize)]
 struct RawEdge {
-    #[serde(rename = "@from")]
+    #[serde(rename = "@from", default)]
     from: String,
-    #[serde(rename = "@to")]
+    #[serde(rename = "@to", default)]
     to: String,
-    #[serde(rename = "@weight")]
+    #[serde(rename = "@weight", default)]
     weight: String,
+}
+
+/// An element of the format: its name, its attributes and the elements it holds.
+type Element = (&'static str, &'static [&'static str], &'static [&'static str]);
+
+/// The format's elements.
+const SCHEMA: &[Element] = &[
+    ("infograph", &["version", "default-lang"], &["node", "edge"]),
+    ("node", &["id", "importance"], &["view", "title", "text", "overlay", "narration", "thumbnail", "roi"]),
+    ("view", &["eye", "target", "up", "fov", "light"], &[]),
+    ("title", &["lang"], &[]),
+    ("text", &["lang"], &[]),
+    ("overlay", &["lang", "src"], &[]),
+    ("narration", &["lang", "src"], &[]),
+    ("thumbnail", &["lang", "src"], &[]),
+    ("roi", &["mask", "min", "max"], &[]),
+    ("edge", &["from", "to", "weight"], &[]),
+];
+
+/// Adds to `problems` every element and attribute that the format does not have, with its line
+/// (the reader skips them, so a misspelt `<titel>` or `importence` would be lost without a
+/// word); fails with the line where the document is not well-formed XML.
+fn check_names(text: &str, problems: &mut Vec<Problem>) -> Result<(), GraphError> {
+    use quick_xml::events::Event;
+    // The reader skips a byte-order mark without counting it in its positions.
+    let body = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let line = |at: u64| {
+        body.as_bytes()[..(at as usize).min(body.len())].iter().filter(|&&b| b == b'\n').count() + 1
+    };
+    let list = |names: &[&str]| names.join(", ");
+    let mut reader = quick_xml::Reader::from_str(body);
+    // The schema entries of the open elements (`None`: an unknown one, whose content is skipped).
+    let mut open: Vec<Option<&Element>> = Vec::new();
+    let mut node: Option<String> = None;
+    loop {
+        let at = reader.buffer_position();
+        let event = reader
+            .read_event()
+            .map_err(|e| GraphError::Xml(format!("line {}: {e}", line(reader.error_position()))))?;
+        let (e, empty) = match &event {
+            Event::Start(e) => (e, false),
+            Event::Empty(e) => (e, true),
+            Event::End(e) => {
+                if e.name().as_ref() == "node" && open.len() == 2 {
+                    node = None;
+                }
+                open.pop();
+                continue;
+            }
+            Event::Eof => return Ok(()),
+            _ => continue,
+        };
+        let name = e.name().as_ref().to_string();
+        if name == "node" && open.len() == 1 {
+            node = e
+                .attributes()
+                .flatten()
+                .find(|a| a.key.as_ref() == "id")
+                .and_then(|a| a.normalized_value(quick_xml::XmlVersion::Implicit1_0).ok())
+                .map(|v| v.trim().to_string());
+        }
+        let mut say = |msg: String| {
+            problems.push(Problem {
+                node: node.clone(),
+                msg: format!("line {}: {msg}", line(at)),
+                dropped: false,
+            })
+        };
+        let entry = match open.last() {
+            // The root: read as the graph whatever its name.
+            None => {
+                if name != "infograph" {
+                    say(format!("the root element is <{name}>; a story's is <infograph>"));
+                }
+                Some(&SCHEMA[0])
+            }
+            Some(None) => None,
+            Some(Some((parent, _, children))) => {
+                if children.contains(&name.as_str()) {
+                    SCHEMA.iter().find(|(n, ..)| *n == name)
+                } else if children.is_empty() {
+                    say(format!("<{parent}> holds no elements, not <{name}>; ignored"));
+                    None
+                } else {
+                    say(format!(
+                        "unknown element <{name}> in <{parent}> (it holds {}); ignored",
+                        list(children)
+                    ));
+                    None
+                }
+            }
+        };
+        if let Some((element, attributes, _)) = entry {
+            for a in e.attributes().flatten() {
+                let key = a.key.as_ref().to_string();
+                if !attributes.contains(&key.as_str())
+                    && !key.starts_with("xmlns")
+                    && !key.starts_with("xml:")
+                {
+                    say(format!(
+                        "unknown attribute {key} on <{element}> (it takes {}); ignored",
+                        list(attributes)
+                    ));
+                }
+            }
+        }
+        if !empty {
+            open.push(entry);
+        } else if open.len() == 1 {
+            node = None;
+        }
+    }
 }
 
 fn vec3(s: &str) -> Option<DVec3> {
@@ -366,7 +478,8 @@ pub fn check_id(id: &str) -> Result<(), String> {
     }
     if id.starts_with('.') || !id.bytes().all(|b| b.is_ascii_alphanumeric() || b"-_.".contains(&b)) {
         return Err(format!(
-            "id {:?} may hold only letters, digits, '-', '_' and '.', and may not start with '.'",
+            "id {:?} may hold only ASCII letters (a–z, A–Z, no accents), digits, '-', '_' and '.', and \
+             may not start with '.'",
             id.chars().take(MAX_ID_LEN).collect::<String>()
         ));
     }
@@ -398,11 +511,12 @@ fn number(s: &str) -> Option<f64> {
 impl InfoGraph {
     /// Reads a graph, keeping every valid node and edge; the problems list what was dropped.
     pub fn from_xml(text: &str) -> Result<(Self, Vec<Problem>), GraphError> {
+        let mut problems = Vec::new();
+        check_names(text, &mut problems)?;
         let raw: RawGraph = quick_xml::de::from_str(text).map_err(|e| GraphError::Xml(e.to_string()))?;
         if raw.version != GRAPH_VERSION {
             return Err(GraphError::Version { found: raw.version });
         }
-        let mut problems = Vec::new();
         let mut bad = |node: Option<&str>, msg: String, dropped: bool| {
             problems.push(Problem { node: node.map(str::to_string), msg, dropped })
         };
@@ -490,6 +604,14 @@ impl InfoGraph {
             // Media paths must stay inside the exhibit; a bad one is left out (the node stays).
             let mut media = |what: &str, src: String| match check_media_path(&src) {
                 Ok(()) => Some(src),
+                Err(_) if src.is_empty() => {
+                    bad(
+                        Some(&id),
+                        format!("{what} without a src attribute (the file to show); ignored"),
+                        false,
+                    );
+                    None
+                }
                 Err(e) => {
                     bad(Some(&id), format!("{what}: {e}; ignored"), false);
                     None
@@ -944,6 +1066,45 @@ mod tests {
         assert!(has("node 'b': view fov \"wide\" is not a number; dropped"), "{text:?}");
         assert!(has("edge a → c has weight \"strong\""), "{text:?}");
         assert!(g.edges.is_empty());
+    }
+
+    #[test]
+    fn misspelt_elements_and_attributes_are_named_with_their_line() {
+        let xml = r#"<infograf version="1">
+  <node id="a" importence="0.6">
+    <view eye="0 0 1" target="0 0 0" up="0 1 0" fov="0.8"/>
+    <titel lang="en">Lost</titel>
+    <title lang="en">Kept</title>
+    <overlay lang="en" scr="overlays/a.png"/>
+  </node>
+  <nde id="b"><view eye="0 0 1" target="0 0 0" up="0 1 0" fov="0.8"/></nde>
+  <node id="c"><view eye="0 0 1" target="0 0 0" up="0 1 0" fov="0.8"><title>in a view</title></view></node>
+  <egde from="a" to="c" weight="1"/>
+</infograf>"#;
+        let (g, problems) = InfoGraph::from_xml(xml).expect("typos do not drop the story");
+        let text: Vec<String> = problems.iter().map(ToString::to_string).collect();
+        for expect in [
+            "line 1: the root element is <infograf>; a story's is <infograph>",
+            "node 'a': line 2: unknown attribute importence on <node> (it takes id, importance); ignored",
+            "node 'a': line 4: unknown element <titel> in <node> (it holds view, title, text, overlay, \
+             narration, thumbnail, roi); ignored",
+            "node 'a': line 6: unknown attribute scr on <overlay> (it takes lang, src); ignored",
+            "node 'a': overlay without a src attribute (the file to show); ignored",
+            "line 8: unknown element <nde> in <infograph> (it holds node, edge); ignored",
+            "node 'c': line 9: <view> holds no elements, not <title>; ignored",
+            "line 10: unknown element <egde> in <infograph> (it holds node, edge); ignored",
+        ] {
+            assert!(text.iter().any(|t| t == expect), "missing {expect:?} in {text:#?}");
+        }
+        assert_eq!(text.len(), 8, "{text:#?}");
+        // The rest is read as written.
+        assert_eq!(g.nodes.iter().map(|n| n.id.as_str()).collect::<Vec<_>>(), ["a", "c"]);
+        assert_eq!(g.nodes[0].title.get("en", "en"), Some("Kept"));
+        assert!(g.nodes[0].overlay.get("en", "en").is_none());
+        // A document that is not well-formed names the line.
+        let e = InfoGraph::from_xml("<infograph version=\"1\">\n  <node id=\"a\">\n  </nod>\n</infograph>")
+            .expect_err("mismatched tag");
+        assert!(e.to_string().contains("line 3: "), "{e}");
     }
 
     #[test]
