@@ -262,7 +262,10 @@ fn main() -> anyhow::Result<()> {
     tracing_subscriber::fmt()
         .with_ansi(std::io::stderr().is_terminal())
         .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
-            tracing_subscriber::EnvFilter::new("info,wgpu_core=warn,wgpu_hal=warn,naga=warn")
+            tracing_subscriber::EnvFilter::new(
+                "info,wgpu_core=warn,wgpu_hal=warn,naga=warn,symphonia=off,symphonia_core=off,\
+                 symphonia_bundle_mp3=off",
+            )
         }))
         .with_writer(std::io::stderr)
         .init();

@@ -42,6 +42,8 @@ fn kiosk_check_lists_what_the_kiosk_would_leave_out_naming_file_and_node() {
     std::fs::write(broken.join("audio/brow-it.wav"), b"RIFF not really a wave").expect("write");
     let graph = std::fs::read_to_string(broken.join("graph.xml")).expect("graph");
     let graph = graph.replacen(r#"<view eye="0.13 1.55 2.9""#, r#"<view eye="0.13 1.55""#, 1);
+    // A misspelt tag: the title it holds would be lost without a word.
+    let graph = graph.replacen("<title", "<titel", 1).replacen("</title>", "</titel>", 1);
     std::fs::write(broken.join("graph.xml"), graph).expect("write");
     std::fs::write(broken.join("exhibit.toml"), "frnt = \"-z\"\n").expect("write");
     let overlay = broken.join("overlays/intro-en.png");
@@ -53,13 +55,35 @@ fn kiosk_check_lists_what_the_kiosk_would_leave_out_naming_file_and_node() {
     for line in [
         format!("error: {g}: node 'face': view eye/target/up must be three finite numbers each; dropped"),
         format!("error: {g}: node 'face': edge intro → face names a node dropped above; dropped"),
-        format!("error: {g}: node 'brow': narration audio/brow-it.wav: "),
+        format!(
+            "error: {g}: node 'brow': narration audio/brow-it.wav: not a sound the kiosk can play (WAV with \
+             PCM, Ogg Vorbis, MP3 or FLAC)"
+        ),
+        format!("error: {g}: node 'intro': line "),
+        "unknown element <titel> in <node>".to_string(),
         format!("error: {g}: node 'intro': image overlays/intro-en.png: "),
         format!("error: {}: unknown key `frnt`", broken.join("exhibit.toml").display()),
         "1 of 2 exhibit(s) have errors".to_string(),
     ] {
         assert!(out.contains(&line), "{line}\n{out}");
     }
+    // The model's extent, in the coordinates of the views a curator writes.
+    let model = out.lines().find(|l| l.contains("model demosthenes-low-res.obj")).expect("model line");
+    let extent: Vec<f64> = model
+        .split_once("levels; ")
+        .expect("extent")
+        .1
+        .split(|c: char| c == ',' || c.is_whitespace())
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    assert!(extent.len() == 6 && extent.chunks(2).all(|r| r[0] < r[1]), "{model}");
+
+    // The folder of exhibits given for one, or a directory that is not there: said so.
+    let (ok, out) = check(&[dir.path()], false);
+    assert!(!ok && out.contains("holds exhibits: ") && out.contains("demosthenes"), "{out}");
+    assert!(out.contains("the kiosk leaves this exhibit out"), "{out}");
+    let (ok, out) = check(&[&dir.path().join("missing")], false);
+    assert!(!ok && out.contains("missing: no such directory") && !out.contains("pose:"), "{out}");
 
     // --full reads every node: a store with a flipped byte fails, naming the node.
     let stored = dir.path().join("stored");

@@ -17,7 +17,13 @@ enum Manager {
 /// Decodes a narration file completely (WAV with PCM, Ogg Vorbis, MP3, FLAC), as the kiosk and
 /// the authoring tool play it; the error names the file.
 pub fn decode(path: &Path) -> Result<StaticSoundData, String> {
-    StaticSoundData::from_file(path).map_err(|e| format!("narration {}: {e}", path.display()))
+    StaticSoundData::from_file(path).map_err(|e| {
+        format!(
+            "narration {}: not a sound the kiosk can play (WAV with PCM, Ogg Vorbis, MP3 or FLAC): {e}; the node \
+             is shown without it",
+            path.display()
+        )
+    })
 }
 
 /// Plays one narration at a time.

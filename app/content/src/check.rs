@@ -30,18 +30,32 @@ impl Checked {
 /// Checks the exhibit in `dir`, importing a scan into `cache` if it has no store there yet.
 pub fn check(dir: &Path, cache: &Path, full: bool) -> Checked {
     let mut c = Checked::default();
+    if !dir.is_dir() {
+        c.problems.push((true, format!("{}: no such directory", dir.display())));
+        return c;
+    }
     match exhibit::open_model_in(dir, cache) {
         Ok(store) => {
             let h = *store.header();
             let name = exhibit::model_file(dir)
                 .ok()
                 .and_then(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()));
+            // In the model's coordinates, those of graph.xml's views.
+            let b = store.bbox();
+            let (lo, hi) = (store.origin() + b.min.as_dvec3(), store.origin() + b.max.as_dvec3());
             c.sound.push(format!(
-                "model {}: {} samples at full resolution, {} nodes, {} levels",
+                "model {}: {} samples at full resolution, {} nodes, {} levels; x {:.3} to {:.3}, y {:.3} to \
+                 {:.3}, z {:.3} to {:.3}",
                 name.unwrap_or_default(),
                 h.leaf_point_count,
                 h.node_count,
-                store.levels()
+                store.levels(),
+                lo.x,
+                hi.x,
+                lo.y,
+                hi.y,
+                lo.z,
+                hi.z
             ));
             if full {
                 let bad: Vec<String> = store.failing_nodes().map(|(_, e)| e.to_string()).collect();
@@ -57,7 +71,27 @@ pub fn check(dir: &Path, cache: &Path, full: bool) -> Checked {
                 }
             }
         }
-        Err(e) => c.problems.push((true, format!("model: {e:#}"))),
+        Err(e) => {
+            // A folder of exhibits given for one: say which to check.
+            let inside: Vec<String> = std::fs::read_dir(dir)
+                .into_iter()
+                .flatten()
+                .flatten()
+                .filter(|d| exhibit::model_file(&d.path()).is_ok())
+                .map(|d| d.file_name().to_string_lossy().into_owned())
+                .collect();
+            let hint = if inside.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    " ({} holds exhibits: {}; check them with `kiosk check {}/*`)",
+                    dir.display(),
+                    inside.join(", "),
+                    dir.display()
+                )
+            };
+            c.problems.push((true, format!("model: {e:#}; the kiosk leaves this exhibit out{hint}")));
+        }
     }
     // Every problem of exhibit.toml (the kiosk would leave that key at its default), and the pose
     // the kiosk shows the model in.

@@ -426,7 +426,8 @@ fn taken<T>(
 
 /// An axis by its name in `exhibit.toml`.
 fn axis(path: &Path, key: &str, name: &str) -> anyhow::Result<glam::DVec3> {
-    match UP_AXES.iter().find(|(n, _)| *n == name.trim()) {
+    // `Z` as `z`: spreadsheets and scanners' software write axes in capitals.
+    match UP_AXES.iter().find(|(n, _)| n.eq_ignore_ascii_case(name.trim())) {
         Some((_, axis)) => Ok(*axis),
         None => {
             anyhow::bail!("{}: {key} = {name:?}: must be x, y, z, -x, -y, -z or [x, y, z]", path.display())
@@ -654,6 +655,8 @@ mod tests {
         assert_eq!(model_up(dir.path()).expect("no file"), glam::DVec3::Y);
         std::fs::write(dir.path().join("exhibit.toml"), "up = \"z\"\n").expect("write");
         assert_eq!(model_up(dir.path()).expect("z"), glam::DVec3::Z);
+        std::fs::write(dir.path().join("exhibit.toml"), "up = \"-Z\"\n").expect("write");
+        assert_eq!(model_up(dir.path()).expect("capital Z"), glam::DVec3::NEG_Z);
         std::fs::write(dir.path().join("exhibit.toml"), "up = \"sideways\"\n").expect("write");
         let e = model_up(dir.path()).expect_err("bad axis").to_string();
         assert!(e.contains("exhibit.toml") && e.contains("sideways"), "{e}");

@@ -53,12 +53,29 @@ pub fn default_front(up: DVec3) -> DVec3 {
 
 /// The camera the kiosk starts with: the whole model framed from its `front` side (unit,
 /// perpendicular to `up`; `None`: [`default_front`]), upright, its bounding sphere being the one
-/// of [`upright_bounds`].
+/// of [`upright_bounds`]; level, or looking down on a flat model ([`start_elevation`]).
 pub fn start_camera<B: AsRef<[u8]>>(store: &Store<B>, fov_y: f64, up: DVec3, front: Option<DVec3>) -> Camera {
     let from =
         front.map(|f| f - up * f.dot(up)).and_then(DVec3::try_normalize).unwrap_or_else(|| default_front(up));
     let (center, radius) = upright_bounds(store, up, from);
+    let size = store.bbox().extent().as_dvec3().abs();
+    let e = start_elevation(size, up, from);
+    let from = (from * e.cos() + up * e.sin()).try_normalize().unwrap_or(from);
     Camera::framing(center, radius.max(f64::MIN_POSITIVE), from, up, fov_y)
+}
+
+/// How far above the horizon (radians) the start view looks down at a model whose box has the
+/// sides `size` (the store's axes), standing on `up`, seen from `from`: level for a model at
+/// least a third as tall as it is wide, 45° for one at most a tenth (a terrain, a tablet lying
+/// on its back: seen level, a thin strip across the screen), in between in proportion.
+pub fn start_elevation(size: DVec3, up: DVec3, from: DVec3) -> f64 {
+    let along = |d: DVec3| (size * d.abs()).element_sum();
+    let wide = along(from).max(along(up.cross(from)));
+    if wide <= 0.0 || !wide.is_finite() {
+        return 0.0;
+    }
+    let (level, flat) = (1.0 / 3.0, 0.1);
+    ((level - along(up) / wide) / (level - flat)).clamp(0.0, 1.0) * std::f64::consts::FRAC_PI_4
 }
 
 /// The centre and half diagonal of the model's bounding box in its upright frame (`up`, `front`
@@ -190,6 +207,23 @@ pub fn make_controller<B: AsRef<[u8]>>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_start_view_looks_down_on_a_flat_model_only() {
+        let deg = |size: DVec3, up: DVec3| start_elevation(size, up, default_front(up)).to_degrees();
+        // A bust, a plaque standing upright, a cube: level.
+        assert_eq!(deg(DVec3::new(0.5, 0.8, 0.4), DVec3::Y), 0.0);
+        assert_eq!(deg(DVec3::new(1.0, 1.0, 0.02), DVec3::Y), 0.0);
+        assert_eq!(deg(DVec3::ONE, DVec3::Z), 0.0);
+        // A terrain on Z (a survey), a tablet lying on its back on Y: 45°; halfway flat, between.
+        assert!((deg(DVec3::new(300.0, 200.0, 12.0), DVec3::Z) - 45.0).abs() < 1e-9);
+        assert!((deg(DVec3::new(0.3, 0.01, 0.2), DVec3::Y) - 45.0).abs() < 1e-9);
+        let between = deg(DVec3::new(1.0, 0.2, 1.0), DVec3::Y);
+        assert!(between > 10.0 && between < 35.0, "{between}");
+        // Degenerate boxes stay level.
+        assert_eq!(deg(DVec3::ZERO, DVec3::Y), 0.0);
+        assert_eq!(deg(DVec3::new(0.0, 1.0, 0.0), DVec3::Y), 0.0);
+    }
 
     #[test]
     fn the_default_front_is_level_for_every_up() {
