@@ -144,7 +144,10 @@ fn a_truncated_ascii_body_says_how_many_rows_it_has() {
     let e = rows(cut.as_bytes()).expect_err("truncated").to_string();
     assert_eq!(
         e,
-        format!("element 'face' row {row} (line {line}): missing value for property 'vertex_indices'")
+        format!(
+            "element 'face' row {row} (line {line}): missing value for property 'vertex_indices'; the file ends \
+             in this line (cut short?)"
+        )
     );
     // Cut at a line end: the rows are all there up to it.
     let e = rows(&cut.as_bytes()[..start]).expect_err("truncated").to_string();

@@ -143,6 +143,17 @@ fn broken_survey_files_and_other_formats_are_clear_errors() {
             format!("GLB header: the file should be {} bytes long and has {cut} (cut short?)", whole.len());
         assert!(e.contains(&expect), "{cut}: {e}");
     }
+    // A text PLY cut in the middle of a row says so.
+    let path = dir.path().join("cut.ply");
+    std::fs::write(
+        &path,
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+         end_header\n0 0 0\n1 1",
+    )
+    .expect("write");
+    let e = read_all(&path, &ReadOptions::default()).expect_err("cut PLY").to_string();
+    let expect = "row 2 (line 9): missing value for property 'z'; the file ends in this line (cut short?)";
+    assert!(e.contains(expect), "{e}");
     // A gzip'd scan cut short blames the compressed file.
     let gz = std::fs::read(
         Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -206,8 +206,15 @@ fn parse_piece<C: Convert>(
         let taken = fast[ei].as_ref().is_some_and(|f| f.read(&block[start..], text.len(), &mut p.row));
         let parsed = if taken { Ok(()) } else { parse_line(text, el, &mut p.row) };
         let parsed = parsed.map_err(|msg| {
-            let msg =
-                if std::str::from_utf8(text).is_err() { "line is not valid UTF-8 text".into() } else { msg };
+            let msg = if std::str::from_utf8(text).is_err() {
+                "line is not valid UTF-8 text".into()
+            } else if end == block.len() && block.last() != Some(&b'\n') {
+                // Blocks end with a line's end except at the end of the file: this line is its
+                // last, unfinished.
+                format!("{msg}; the file ends in this line (cut short?)")
+            } else {
+                msg
+            };
             PlyError::Row { element: el.name.clone(), row: ri + 1, line: Some(line), msg }
         });
         if let Err(e) = parsed.and_then(|()| conv.convert(ei, ri, &p.row, &mut p.out)) {
