@@ -97,7 +97,7 @@ pub fn import(
     check_input(scan, out)?;
     check_replaceable(out)?;
     let lock = OutputLock::acquire(out)?;
-    import_locked(scan, &lock, opts, progress)
+    build(scan, &lock, opts, progress)
 }
 
 /// Imports a scan file into the output that `lock` holds.
@@ -107,8 +107,18 @@ pub fn import_locked(
     opts: &ImportOptions,
     progress: &mut Progress<'_>,
 ) -> anyhow::Result<ImportReport> {
-    let start = Instant::now();
     check_input(scan, &lock.out)?;
+    build(scan, lock, opts, progress)
+}
+
+/// The import itself, once its output is checked and locked.
+fn build(
+    scan: &Path,
+    lock: &OutputLock,
+    opts: &ImportOptions,
+    progress: &mut Progress<'_>,
+) -> anyhow::Result<ImportReport> {
+    let start = Instant::now();
     let work = WorkDir::create(&lock.out)?;
     let mut builder = Builder::new(opts.build, &work.path)?;
     progress(Phase::Reading, 0, 0);

@@ -387,12 +387,7 @@ fn check_names(text: &str, problems: &mut Vec<Problem>) -> Result<(), GraphError
         };
         let name = e.name().as_ref().to_string();
         if name == "node" && open.len() == 1 {
-            node = e
-                .attributes()
-                .flatten()
-                .find(|a| a.key.as_ref() == "id")
-                .and_then(|a| a.normalized_value(quick_xml::XmlVersion::Implicit1_0).ok())
-                .map(|v| v.trim().to_string());
+            node = attribute(e, "id");
         }
         let mut say = |msg: String| {
             problems.push(Problem {
@@ -445,6 +440,15 @@ fn check_names(text: &str, problems: &mut Vec<Problem>) -> Result<(), GraphError
             node = None;
         }
     }
+}
+
+/// The value of an element's attribute, trimmed.
+fn attribute(e: &quick_xml::events::BytesStart<'_>, name: &str) -> Option<String> {
+    e.attributes()
+        .flatten()
+        .find(|a| a.key.as_ref() == name)
+        .and_then(|a| a.normalized_value(quick_xml::XmlVersion::Implicit1_0).ok())
+        .map(|v| v.trim().to_string())
 }
 
 fn vec3(s: &str) -> Option<DVec3> {
@@ -851,13 +855,6 @@ impl InfoGraph {
         let bom = if original.starts_with('\u{feff}') { "\u{feff}" } else { "" };
         let original = &original[bom.len()..];
         let xml_err = |e: &dyn std::fmt::Display| GraphError::Xml(e.to_string());
-        let attr = |e: &quick_xml::events::BytesStart<'_>, name: &str| -> Option<String> {
-            e.attributes()
-                .flatten()
-                .find(|a| a.key.as_ref() == name)
-                .and_then(|a| a.normalized_value(quick_xml::XmlVersion::Implicit1_0).ok())
-                .map(|v| v.trim().to_string())
-        };
         let loaded_edge = |from: &str, to: &str| -> Option<&Edge> {
             let (f, t) = (loaded.index_of(from)?, loaded.index_of(to)?);
             loaded.edges.iter().find(|e| e.from == f && e.to == t)
@@ -937,7 +934,7 @@ impl InfoGraph {
                 _ => None,
             };
             let replacement: Option<Option<String>> = match &start_tag {
-                Some(e) if e.name().as_ref() == "node" => attr(e, "id").and_then(|id| {
+                Some(e) if e.name().as_ref() == "node" => attribute(e, "id").and_then(|id| {
                     let old = loaded.index_of(&id).filter(|_| claimed_nodes.insert(id.clone()))?;
                     Some(self.index_of(&id).map(|i| {
                         written_nodes[i] = true;
@@ -948,7 +945,7 @@ impl InfoGraph {
                         }
                     }))
                 }),
-                Some(e) if e.name().as_ref() == "edge" => match (attr(e, "from"), attr(e, "to")) {
+                Some(e) if e.name().as_ref() == "edge" => match (attribute(e, "from"), attribute(e, "to")) {
                     (Some(from), Some(to)) => loaded_edge(&from, &to)
                         .filter(|_| claimed_edges.insert((from.clone(), to.clone())))
                         .map(|old| {

@@ -83,11 +83,13 @@ pub const SUPPORTED: &str = "PLY (.ply, .ply.gz), OBJ (.obj, .obj.gz, with MTL m
 /// Decides a file's format from its first bytes (and, for text, its extension).
 pub fn detect(path: &Path) -> Result<Format, DetectError> {
     let mut head = [0u8; 4096];
-    let n = read_head(path, &mut head)?;
-    if n == 0 && std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() == 0) {
+    let read = read_head(path, &mut head)?;
+    if read == Some(0) {
         return Err(DetectError::Empty);
     }
-    let head = &head[..n];
+    // A pipe is not peeked at: nothing read says nothing of its signature.
+    let file = read.is_some();
+    let head = &head[..read.unwrap_or(0)];
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("").to_ascii_lowercase();
     let unsupported = |what| Err(DetectError::Unsupported { what });
     if head.starts_with(b"LASF") {
@@ -115,11 +117,10 @@ pub fn detect(path: &Path) -> Result<Format, DetectError> {
     if name.ends_with(".glb") {
         return unsupported("a file named .glb without the glTF binary header");
     }
-    // (A pipe is not peeked at: nothing read says nothing of its signature.)
-    if n > 0 && (name.ends_with(".las") || name.ends_with(".laz")) {
+    if file && (name.ends_with(".las") || name.ends_with(".laz")) {
         return unsupported("a file named .las or .laz that does not start with the LAS signature \"LASF\"");
     }
-    if n > 0 && name.ends_with(".e57") {
+    if file && name.ends_with(".e57") {
         return unsupported("a file named .e57 that does not start with the E57 signature \"ASTM-E57\"");
     }
     if head.starts_with(&[0x89, b'P', b'N', b'G']) || head.starts_with(&[0xff, 0xd8, 0xff]) {
@@ -140,10 +141,11 @@ pub fn detect(path: &Path) -> Result<Format, DetectError> {
     unsupported("an unknown file")
 }
 
-fn read_head(path: &Path, head: &mut [u8]) -> std::io::Result<usize> {
+/// Reads the first bytes of a regular file into `head`: how many, `None` for anything else.
+fn read_head(path: &Path, head: &mut [u8]) -> std::io::Result<Option<usize>> {
     // Only a regular file is peeked at: reading a pipe would take its bytes from the reader.
     if !std::fs::metadata(path)?.is_file() {
-        return Ok(0);
+        return Ok(None);
     }
     let mut f = std::fs::File::open(path)?;
     let mut n = 0;
@@ -153,7 +155,7 @@ fn read_head(path: &Path, head: &mut [u8]) -> std::io::Result<usize> {
             k => n += k,
         }
     }
-    Ok(n)
+    Ok(Some(n))
 }
 
 /// Runs a decoder of another crate that may panic on a corrupted file (the LAZ decoder asserts

@@ -372,9 +372,9 @@ pub mod mtl {
         if whole.is_file() || !names.contains(char::is_whitespace) {
             return vec![whole];
         }
-        let words: Vec<PathBuf> = names.split_whitespace().map(path).collect();
-        let all_mtl =
-            names.split_whitespace().all(|n| n.trim_matches('"').to_ascii_lowercase().ends_with(".mtl"));
+        let words: Vec<&str> = names.split_whitespace().map(|n| n.trim_matches('"')).collect();
+        let all_mtl = words.iter().all(|n| n.to_ascii_lowercase().ends_with(".mtl"));
+        let words: Vec<PathBuf> = words.into_iter().map(path).collect();
         if words.iter().any(|w| w.is_file()) || all_mtl { words } else { vec![whole] }
     }
 
