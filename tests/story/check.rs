@@ -114,3 +114,41 @@ fn kiosk_check_lists_what_the_kiosk_would_leave_out_naming_file_and_node() {
         "{out}"
     );
 }
+
+#[test]
+fn importing_into_the_cache_is_logged_with_its_progress() {
+    // A kiosk fills its cache before its windows open; a large scan takes minutes, so the log
+    // says what it is doing, and `kiosk check` (which fills the same cache) shows it too.
+    let content = Path::new(env!("CARGO_MANIFEST_DIR")).join("content");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let exhibit = dir.path().join("bust");
+    common::copy_dir(&content.join("demosthenes"), &exhibit);
+    let cache = dir.path().join("cache");
+    let run = || {
+        let o = Command::new(env!("CARGO_BIN_EXE_kiosk"))
+            .env("ISOKIOSK_CACHE", &cache)
+            .env("RUST_BACKTRACE", "0")
+            .env_remove("RUST_LOG")
+            .arg("check")
+            .arg(&exhibit)
+            .output()
+            .expect("run kiosk");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let first = run();
+    let scan = exhibit.join("demosthenes-low-res.obj");
+    let label = format!("{}: importing {}", exhibit.display(), scan.canonicalize().expect("scan").display());
+    for line in [
+        format!("{label} into the cache {}", cache.display()),
+        format!("{label}: reading\n"),
+        format!("{label}: building 0 of 9571 samples (0 %)"),
+        format!("{label}: done, "),
+    ] {
+        assert!(first.contains(&line), "{line}: {first}");
+    }
+    assert!(first.contains("samples read →"), "{first}");
+    // The second time the store is in the cache: nothing to import, nothing said of it.
+    let second = run();
+    assert!(!second.contains("importing"), "{second}");
+}

@@ -88,7 +88,18 @@ pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
                 Some(s) => s,
                 None => {
                     let started = std::time::SystemTime::now();
-                    let report = import_locked(&file, &lock, &options, &mut crate::import::quiet)?;
+                    // A large scan takes minutes, and the kiosk opens its windows after: the
+                    // log says what it is doing.
+                    let label = format!("{}: importing {}", dir.display(), file.display());
+                    tracing::info!(
+                        "{label} into the cache {} (its first use, or the scan or its settings \
+                         changed; a large scan takes minutes, `kiosk check` does it ahead of time)",
+                        cache.display()
+                    );
+                    let mut progress =
+                        crate::import::logged(label.clone(), std::time::Duration::from_secs(10));
+                    let report = import_locked(&file, &lock, &options, &mut progress)?;
+                    tracing::info!("{label}: done, {report}");
                     Inputs::note(&store, &report.inputs, started);
                     crate::open_store(&store)?
                 }

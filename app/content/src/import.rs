@@ -31,7 +31,7 @@ pub enum Phase {
     Reading,
     /// The samples are distributed to regions (done and total: samples).
     Sorting,
-    /// The hierarchy is built (done and total: regions).
+    /// The hierarchy is built (done and total: samples).
     Building,
 }
 
@@ -51,6 +51,39 @@ pub type Progress<'a> = dyn FnMut(Phase, u64, u64) + 'a;
 
 /// A [`Progress`] that shows nothing.
 pub fn quiet(_: Phase, _: u64, _: u64) {}
+
+/// A [`Progress`] for the log, where no terminal shows a bar (a kiosk filling its cache at
+/// start, before its windows open): a line at each phase's start and at most one every
+/// `every` within it, each starting with `label`.
+pub fn logged(label: String, every: std::time::Duration) -> impl FnMut(Phase, u64, u64) {
+    progress_lines(label, every, Instant::now, |line| tracing::info!("{line}"))
+}
+
+/// [`logged`] with its clock `now` and where its lines go, `emit`.
+fn progress_lines(
+    label: String,
+    every: std::time::Duration,
+    now: impl Fn() -> Instant,
+    mut emit: impl FnMut(String),
+) -> impl FnMut(Phase, u64, u64) {
+    let mut last: Option<(Phase, Instant)> = None;
+    move |phase, done, total| {
+        let t = now();
+        if last.is_some_and(|(p, at)| p == phase && t.duration_since(at) < every) {
+            return;
+        }
+        last = Some((phase, t));
+        let name = phase.name();
+        emit(if total > 0 {
+            let share = 100.0 * done as f64 / total as f64;
+            format!("{label}: {name} {done} of {total} samples ({share:.0} %)")
+        } else if done > 0 {
+            format!("{label}: {name} {done} samples")
+        } else {
+            format!("{label}: {name}")
+        });
+    }
+}
 
 /// What an import did.
 #[derive(Clone, Debug)]
@@ -345,5 +378,44 @@ impl source::Sink for Feed<'_, '_> {
         self.read += points.len() as u64;
         (self.progress)(Phase::Reading, self.read, self.expected);
         source::Sink::points(self.builder, points)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::cell::{Cell, RefCell};
+    use std::time::Duration;
+
+    #[test]
+    fn logged_progress_says_each_phase_and_then_at_most_one_line_every_interval() {
+        let start = Instant::now();
+        let seconds = Cell::new(0u64);
+        let lines = RefCell::new(Vec::new());
+        let mut progress = progress_lines(
+            "scan".into(),
+            Duration::from_secs(10),
+            || start + Duration::from_secs(seconds.get()),
+            |l| lines.borrow_mut().push(l),
+        );
+        for (at, phase, done, total) in [
+            (0, Phase::Reading, 0, 0),
+            (4, Phase::Reading, 100, 0),
+            (10, Phase::Reading, 200, 1000),
+            (15, Phase::Reading, 500, 1000),
+            (16, Phase::Building, 0, 990),
+            (17, Phase::Building, 990, 990),
+        ] {
+            seconds.set(at);
+            progress(phase, done, total);
+        }
+        assert_eq!(
+            *lines.borrow(),
+            [
+                "scan: reading",
+                "scan: reading 200 of 1000 samples (20 %)",
+                "scan: building 0 of 990 samples (0 %)",
+            ]
+        );
     }
 }
