@@ -5,8 +5,14 @@ use std::path::Path;
 use std::process::Command;
 
 fn check(args: &[&Path], full: bool) -> (bool, String) {
+    check_with_cache(&common::cache(), args, full)
+}
+
+/// `kiosk check` with its cache in `cache`: whether it passed, and its output (stdout, then the
+/// log).
+fn check_with_cache(cache: &Path, args: &[&Path], full: bool) -> (bool, String) {
     let mut c = Command::new(env!("CARGO_BIN_EXE_kiosk"));
-    c.env("ISOKIOSK_CACHE", common::cache()).env("RUST_BACKTRACE", "0").arg("check");
+    c.env("ISOKIOSK_CACHE", cache).env("RUST_BACKTRACE", "0").env_remove("RUST_LOG").arg("check");
     if full {
         c.arg("--full");
     }
@@ -125,16 +131,9 @@ fn importing_into_the_cache_is_logged_with_its_progress() {
     common::copy_dir(&content.join("demosthenes"), &exhibit);
     let cache = dir.path().join("cache");
     let run = || {
-        let o = Command::new(env!("CARGO_BIN_EXE_kiosk"))
-            .env("ISOKIOSK_CACHE", &cache)
-            .env("RUST_BACKTRACE", "0")
-            .env_remove("RUST_LOG")
-            .arg("check")
-            .arg(&exhibit)
-            .output()
-            .expect("run kiosk");
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        String::from_utf8_lossy(&o.stderr).into_owned()
+        let (ok, out) = check_with_cache(&cache, &[&exhibit], false);
+        assert!(ok, "{out}");
+        out
     };
     let first = run();
     let scan = exhibit.join("demosthenes-low-res.obj");
