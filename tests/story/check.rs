@@ -136,17 +136,23 @@ fn importing_into_the_cache_is_logged_with_its_progress() {
         out
     };
     let first = run();
-    let scan = exhibit.join("demosthenes-low-res.obj");
-    let label = format!("{}: importing {}", exhibit.display(), scan.canonicalize().expect("scan").display());
+    let scan = exhibit.join("demosthenes-low-res.obj").canonicalize().expect("scan");
+    let label = format!("exhibit {}: importing demosthenes-low-res.obj", exhibit.display());
     for line in [
-        format!("{label} into the cache {}", cache.display()),
+        format!(
+            "exhibit {}: importing {} into the cache {}",
+            exhibit.display(),
+            scan.display(),
+            cache.display()
+        ),
         format!("{label}: reading\n"),
+        format!("{label}: reading 9571 of 9571 samples (100 %)"),
         format!("{label}: building 0 of 9571 samples (0 %)"),
-        format!("{label}: done, "),
+        format!("{label}: building 9571 of 9571 samples (100 %)"),
+        format!("{label}: done, 9571 samples read → 9571 distinct"),
     ] {
         assert!(first.contains(&line), "{line}: {first}");
     }
-    assert!(first.contains("samples read →"), "{first}");
     // The second time the store is in the cache: nothing to import, nothing said of it.
     let second = run();
     assert!(!second.contains("importing"), "{second}");

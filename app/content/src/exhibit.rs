@@ -90,15 +90,23 @@ pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
                     let started = std::time::SystemTime::now();
                     // A large scan takes minutes, and the kiosk opens its windows after: the
                     // log says what it is doing.
-                    let label = format!("{}: importing {}", dir.display(), file.display());
+                    let name = file
+                        .file_name()
+                        .map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into());
+                    let label = format!("exhibit {}: importing {name}", dir.display());
                     tracing::info!(
-                        "{label} into the cache {} (its first use, or the scan or its settings \
-                         changed; a large scan takes minutes, `kiosk check` does it ahead of time)",
+                        "exhibit {}: importing {} into the cache {} (not in the cache yet, or the scan, a \
+                         file it names, its settings or the kiosk changed; a large scan takes minutes)",
+                        dir.display(),
+                        file.display(),
                         cache.display()
                     );
                     let mut progress =
                         crate::import::logged(label.clone(), std::time::Duration::from_secs(10));
                     let report = import_locked(&file, &lock, &options, &mut progress)?;
+                    for warning in &report.warnings {
+                        tracing::warn!("{label}: {warning}");
+                    }
                     tracing::info!("{label}: done, {report}");
                     Inputs::note(&store, &report.inputs, started);
                     crate::open_store(&store)?

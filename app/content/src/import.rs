@@ -29,7 +29,8 @@ pub enum Phase {
     /// The scan is read (done: samples read; total: samples the file says it holds, or that a
     /// mesh's surface makes once its triangles are read; 0 when not known).
     Reading,
-    /// The samples are distributed to regions (done and total: samples).
+    /// A cell that outgrew a region is split again (done and total: that cell's samples; each
+    /// cell split starts again from 0).
     Sorting,
     /// The hierarchy is built (done and total: samples).
     Building,
@@ -53,8 +54,8 @@ pub type Progress<'a> = dyn FnMut(Phase, u64, u64) + 'a;
 pub fn quiet(_: Phase, _: u64, _: u64) {}
 
 /// A [`Progress`] for the log, where no terminal shows a bar (a kiosk filling its cache at
-/// start, before its windows open): a line at each phase's start and at most one every
-/// `every` within it, each starting with `label`.
+/// start, before its windows open): a line at each phase's start and end (done = total) and at
+/// most one every `every` within it, each starting with `label`.
 pub fn logged(label: String, every: std::time::Duration) -> impl FnMut(Phase, u64, u64) {
     progress_lines(label, every, Instant::now, |line| tracing::info!("{line}"))
 }
@@ -66,17 +67,24 @@ fn progress_lines(
     now: impl Fn() -> Instant,
     mut emit: impl FnMut(String),
 ) -> impl FnMut(Phase, u64, u64) {
-    let mut last: Option<(Phase, Instant)> = None;
+    let mut last: Option<(Phase, Instant, u64)> = None;
     move |phase, done, total| {
         let t = now();
-        if last.is_some_and(|(p, at)| p == phase && t.duration_since(at) < every) {
+        let end = total > 0 && done >= total;
+        let said = |(p, at, d): (Phase, Instant, u64)| {
+            p == phase && (d == done || !end && t.duration_since(at) < every)
+        };
+        if last.is_some_and(said) {
             return;
         }
-        last = Some((phase, t));
+        last = Some((phase, t, done));
         let name = phase.name();
-        emit(if total > 0 {
-            let share = 100.0 * done as f64 / total as f64;
-            format!("{label}: {name} {done} of {total} samples ({share:.0} %)")
+        emit(if phase == Phase::Sorting {
+            format!("{label}: {name}: splitting a cell of {total} samples, {done} done")
+        } else if total > 0 {
+            // Whole percents, rounded down: 100 % only at the end.
+            let share = (done.min(total) as u128 * 100 / total as u128) as u64;
+            format!("{label}: {name} {done} of {total} samples ({share} %)")
         } else if done > 0 {
             format!("{label}: {name} {done} samples")
         } else {
@@ -362,8 +370,9 @@ impl source::Sink for Feed<'_, '_> {
     type Error = kiosk_import::BuildError;
 
     fn expect(&mut self, points: u64) {
-        self.expected = points;
-        (self.progress)(Phase::Reading, self.read, points);
+        // The points to come: a mesh's surface samples follow the vertices already passed on.
+        self.expected = self.read + points;
+        (self.progress)(Phase::Reading, self.read, self.expected);
     }
 
     fn point(&mut self, p: source::InputPoint) -> Result<(), Self::Error> {
@@ -388,7 +397,7 @@ mod tests {
     use std::time::Duration;
 
     #[test]
-    fn logged_progress_says_each_phase_and_then_at_most_one_line_every_interval() {
+    fn logged_progress_says_each_phase_its_end_and_at_most_one_line_every_interval() {
         let start = Instant::now();
         let seconds = Cell::new(0u64);
         let lines = RefCell::new(Vec::new());
@@ -401,10 +410,15 @@ mod tests {
         for (at, phase, done, total) in [
             (0, Phase::Reading, 0, 0),
             (4, Phase::Reading, 100, 0),
-            (10, Phase::Reading, 200, 1000),
-            (15, Phase::Reading, 500, 1000),
-            (16, Phase::Building, 0, 990),
-            (17, Phase::Building, 990, 990),
+            (10, Phase::Reading, 200, 0),
+            (12, Phase::Reading, 300, 1000),
+            (20, Phase::Reading, 999, 1000),
+            (25, Phase::Reading, 1000, 1000),
+            (26, Phase::Sorting, 0, 400),
+            (27, Phase::Building, 0, 990),
+            (28, Phase::Building, 500, 990),
+            (29, Phase::Building, 990, 990),
+            (29, Phase::Building, 990, 990),
         ] {
             seconds.set(at);
             progress(phase, done, total);
@@ -413,8 +427,12 @@ mod tests {
             *lines.borrow(),
             [
                 "scan: reading",
-                "scan: reading 200 of 1000 samples (20 %)",
+                "scan: reading 200 samples",
+                "scan: reading 999 of 1000 samples (99 %)",
+                "scan: reading 1000 of 1000 samples (100 %)",
+                "scan: sorting: splitting a cell of 400 samples, 0 done",
                 "scan: building 0 of 990 samples (0 %)",
+                "scan: building 990 of 990 samples (100 %)",
             ]
         );
     }
