@@ -95,8 +95,9 @@ pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
                         .map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into());
                     let label = format!("exhibit {}: importing {name}", dir.display());
                     tracing::info!(
-                        "exhibit {}: importing {} into the cache {} (not in the cache yet, or the scan, a \
-                         file it names, its settings or the kiosk changed; a large scan takes minutes)",
+                        "exhibit {}: importing {} into the cache {} (not in the cache or unreadable there, or \
+                         the scan, a file it names, its settings or the kiosk changed; a large scan \
+                         takes minutes)",
                         dir.display(),
                         file.display(),
                         cache.display()

@@ -26,8 +26,9 @@ pub struct ImportOptions {
 /// The phases an import reports its progress in.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Phase {
-    /// The scan is read (done: samples read; total: samples the file says it holds, or that a
-    /// mesh's surface makes once its triangles are read; 0 when not known).
+    /// The scan is read (done: samples read; total: samples the file says it holds, or a mesh's
+    /// vertices passed on plus the samples its surface makes, once its triangles are read; 0
+    /// when not known).
     Reading,
     /// A cell that outgrew a region is split again (done and total: that cell's samples; each
     /// cell split starts again from 0).
@@ -54,8 +55,9 @@ pub type Progress<'a> = dyn FnMut(Phase, u64, u64) + 'a;
 pub fn quiet(_: Phase, _: u64, _: u64) {}
 
 /// A [`Progress`] for the log, where no terminal shows a bar (a kiosk filling its cache at
-/// start, before its windows open): a line at each phase's start and end (done = total) and at
-/// most one every `every` within it, each starting with `label`.
+/// start, before its windows open): a line at each phase's start and end (done = total, or the
+/// last report before the next phase) and at most one every `every` within it, each starting
+/// with `label`.
 pub fn logged(label: String, every: std::time::Duration) -> impl FnMut(Phase, u64, u64) {
     progress_lines(label, every, Instant::now, |line| tracing::info!("{line}"))
 }
@@ -67,19 +69,9 @@ fn progress_lines(
     now: impl Fn() -> Instant,
     mut emit: impl FnMut(String),
 ) -> impl FnMut(Phase, u64, u64) {
-    let mut last: Option<(Phase, Instant, u64)> = None;
-    move |phase, done, total| {
-        let t = now();
-        let end = total > 0 && done >= total;
-        let said = |(p, at, d): (Phase, Instant, u64)| {
-            p == phase && (d == done || !end && t.duration_since(at) < every)
-        };
-        if last.is_some_and(said) {
-            return;
-        }
-        last = Some((phase, t, done));
+    let line = move |phase: Phase, done: u64, total: u64| {
         let name = phase.name();
-        emit(if phase == Phase::Sorting {
+        if phase == Phase::Sorting {
             format!("{label}: {name}: splitting a cell of {total} samples, {done} done")
         } else if total > 0 {
             // Whole percents, rounded down: 100 % only at the end.
@@ -89,7 +81,34 @@ fn progress_lines(
             format!("{label}: {name} {done} samples")
         } else {
             format!("{label}: {name}")
-        });
+        }
+    };
+    // The last report said (phase, when, done, total), and the last one held back.
+    let mut said: Option<(Phase, Instant, u64, u64)> = None;
+    let mut held: Option<(Phase, u64, u64)> = None;
+    move |phase, done, total| {
+        let t = now();
+        if let Some((p, d, n)) = held.take_if(|(p, ..)| *p != phase) {
+            // The phase ended between reports: its last state, before the next phase's.
+            emit(line(p, d, n));
+        }
+        // Within a phase: nothing new, or not the end and too soon after the last line.
+        let (again, soon) = match said {
+            Some((p, at, d, n)) if p == phase => {
+                ((d, n) == (done, total), done != total && t.duration_since(at) < every)
+            }
+            _ => (false, false),
+        };
+        if again {
+            return;
+        }
+        if soon {
+            held = Some((phase, done, total));
+            return;
+        }
+        held = None;
+        said = Some((phase, t, done, total));
+        emit(line(phase, done, total));
     }
 }
 
@@ -371,7 +390,7 @@ impl source::Sink for Feed<'_, '_> {
 
     fn expect(&mut self, points: u64) {
         // The points to come: a mesh's surface samples follow the vertices already passed on.
-        self.expected = self.read + points;
+        self.expected = self.read.saturating_add(points);
         (self.progress)(Phase::Reading, self.read, self.expected);
     }
 
@@ -434,6 +453,25 @@ mod tests {
                 "scan: building 0 of 990 samples (0 %)",
                 "scan: building 990 of 990 samples (100 %)",
             ]
+        );
+        // A total never known (a point cloud's PLY): the reading's last count is said when the
+        // next phase starts.
+        lines.borrow_mut().clear();
+        let mut progress = progress_lines(
+            "cloud".into(),
+            Duration::from_secs(10),
+            || start + Duration::from_secs(seconds.get()),
+            |l| lines.borrow_mut().push(l),
+        );
+        for (at, phase, done, total) in
+            [(0, Phase::Reading, 0, 0), (3, Phase::Reading, 700, 0), (5, Phase::Building, 0, 700)]
+        {
+            seconds.set(at);
+            progress(phase, done, total);
+        }
+        assert_eq!(
+            *lines.borrow(),
+            ["cloud: reading", "cloud: reading 700 samples", "cloud: building 0 of 700 samples (0 %)"]
         );
     }
 }

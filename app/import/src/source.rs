@@ -105,8 +105,9 @@ pub trait Sink {
     /// Takes one point; an error stops the reading.
     fn point(&mut self, p: InputPoint) -> Result<(), Self::Error>;
 
-    /// How many points the reader expects to pass on, when the file says (a survey file's
-    /// header): for a progress bar. Nothing by default.
+    /// How many more points the reader will pass on after those it has passed, when it knows (a
+    /// survey file's header, a mesh's surface samples after its vertices): for a progress bar.
+    /// Nothing by default.
     fn expect(&mut self, _points: u64) {}
 
     /// Takes points in file order, all at once (the vertices of a mesh, once its faces are
