@@ -88,27 +88,7 @@ pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
                 Some(s) => s,
                 None => {
                     let started = std::time::SystemTime::now();
-                    // A large scan takes minutes, and the kiosk opens its windows after: the
-                    // log says what it is doing.
-                    let name = file
-                        .file_name()
-                        .map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into());
-                    let label = format!("exhibit {}: importing {name}", dir.display());
-                    tracing::info!(
-                        "exhibit {}: importing {} into the cache {} (not in the cache or unreadable there, or \
-                         the scan, a file it names, its settings or the kiosk changed; a large scan \
-                         takes minutes)",
-                        dir.display(),
-                        file.display(),
-                        cache.display()
-                    );
-                    let mut progress =
-                        crate::import::logged(label.clone(), std::time::Duration::from_secs(10));
-                    let report = import_locked(&file, &lock, &options, &mut progress)?;
-                    for warning in &report.warnings {
-                        tracing::warn!("{label}: {warning}");
-                    }
-                    tracing::info!("{label}: done, {report}");
+                    let report = import_logged(dir, &file, cache, &lock, &options)?;
                     Inputs::note(&store, &report.inputs, started);
                     crate::open_store(&store)?
                 }
@@ -121,6 +101,33 @@ pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
     }
     sweep_cache(cache, &store, &source);
     Ok(opened)
+}
+
+/// Imports the scan `file` of the exhibit `dir` into the store of `cache` that `lock` holds,
+/// logging what it does: a large scan takes minutes, and the kiosk opens its windows after.
+fn import_logged(
+    dir: &Path,
+    file: &Path,
+    cache: &Path,
+    lock: &OutputLock,
+    options: &ImportOptions,
+) -> anyhow::Result<crate::import::ImportReport> {
+    let name = file.file_name().map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into());
+    let label = format!("exhibit {}: importing {name}", dir.display());
+    tracing::info!(
+        "exhibit {}: importing {} into the cache {} (not in the cache or unreadable there, or the scan, a \
+         file it names, its settings or the kiosk changed; a large scan takes minutes)",
+        dir.display(),
+        file.display(),
+        cache.display()
+    );
+    let mut progress = crate::import::logged(label.clone(), std::time::Duration::from_secs(10));
+    let report = import_locked(file, lock, options, &mut progress)?;
+    for warning in &report.warnings {
+        tracing::warn!("{label}: {warning}");
+    }
+    tracing::info!("{label}: done, {report}");
+    Ok(report)
 }
 
 /// Ending of the note beside each cached store that names the scan it was made from.
