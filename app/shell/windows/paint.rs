@@ -79,8 +79,7 @@ impl Painter {
         draw: impl FnMut(&egui::Context),
     ) {
         let ppp = (size.1 as f32 / DESIGN_HEIGHT).max(0.25);
-        self.ctx.set_pixels_per_point(ppp);
-        let input = egui::RawInput {
+        let mut input = egui::RawInput {
             screen_rect: Some(egui::Rect::from_min_size(
                 egui::Pos2::ZERO,
                 egui::vec2(size.0 as f32 / ppp, size.1 as f32 / ppp),
@@ -88,6 +87,9 @@ impl Painter {
             time: Some(time),
             ..Default::default()
         };
+        // The scale as the window's own (a zoom factor set on the context takes effect a pass
+        // late: a new context's first pass laid out a screen of 15 000 points, and showed nothing).
+        input.viewports.entry(egui::ViewportId::ROOT).or_default().native_pixels_per_point = Some(ppp);
         let mut output = self.ctx.run_pass(input, draw);
         let jobs = self.ctx.tessellate(output.shapes, output.pixels_per_point);
         let mut textures = std::mem::take(&mut output.textures_delta);
