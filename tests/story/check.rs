@@ -157,3 +157,42 @@ fn importing_into_the_cache_is_logged_with_its_progress() {
     let second = run();
     assert!(!second.contains("importing"), "{second}");
 }
+
+#[test]
+fn the_readers_warnings_are_listed_at_every_check_not_only_the_first_import() {
+    // A scan the reader takes with a warning (an unknown header keyword): the kiosk shows it,
+    // and `kiosk check` lists the warning, also once the store is cached (the warning is noted
+    // beside it).
+    let dir = tempfile::tempdir().expect("temp dir");
+    let exhibit = dir.path().join("grid");
+    std::fs::create_dir(&exhibit).expect("exhibit dir");
+    let mut ply = String::from("ply\nformat ascii 1.0\nelement vertex 400\nproperty float x\n");
+    ply += "property float y\nproperty float z\nscanner_angle 12\nend_header\n";
+    for i in 0..400 {
+        ply += &format!("{} {} {}\n", (i % 20) as f32 * 0.01, (i / 20) as f32 * 0.01, 0.002 * (i % 3) as f32);
+    }
+    std::fs::write(exhibit.join("grid.ply"), ply).expect("write");
+    let cache = dir.path().join("cache");
+    let warning = "warning: model grid.ply: header line 7: unknown keyword 'scanner_angle' ignored";
+    for run in ["first", "cached"] {
+        let (ok, out) = check_with_cache(&cache, &[&exhibit], false);
+        assert!(ok, "{run}: a warning is not an error: {out}");
+        assert!(out.contains("model grid.ply: 400 samples"), "{run}: {out}");
+        assert_eq!(out.matches(warning).count(), 1, "{run}: {out}");
+        assert_eq!(out.contains("importing"), run == "first", "{run}: {out}");
+    }
+    // Its note goes with the store when the scan changes.
+    let notes = |ending: &str| {
+        std::fs::read_dir(&cache)
+            .expect("cache")
+            .flatten()
+            .filter(|e| e.path().extension().is_some_and(|x| x == ending))
+            .count()
+    };
+    assert_eq!(notes("warnings"), 1);
+    let text = std::fs::read_to_string(exhibit.join("grid.ply")).expect("read");
+    std::fs::write(exhibit.join("grid.ply"), text.replace("scanner_angle 12\n", "")).expect("write");
+    let (ok, out) = check_with_cache(&cache, &[&exhibit], false);
+    assert!(ok && !out.contains("warning"), "{out}");
+    assert_eq!((notes("kstore"), notes("warnings")), (1, 0), "{out}");
+}

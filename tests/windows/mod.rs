@@ -19,7 +19,13 @@ struct Run {
 
 impl Run {
     fn shot(&self, window: &str, t: f64) -> RgbaImage {
-        let p = self.dir.path().join(format!("{window}-{t:.1}.png"));
+        self.tagged(window, &format!("{t:.1}"))
+    }
+
+    /// A window's screenshot `{window}-{tag}.png` (`preparing`: the first frame before the
+    /// gallery).
+    fn tagged(&self, window: &str, tag: &str) -> RgbaImage {
+        let p = self.dir.path().join(format!("{window}-{tag}.png"));
         image::open(&p).unwrap_or_else(|e| panic!("{}: {e}\n{}", p.display(), self.stderr)).to_rgba8()
     }
 
@@ -314,6 +320,63 @@ fn broken_content_is_logged_once_and_the_rest_keeps_working() {
     assert!(run.trace.iter().all(|f| f["model"] == 0), "the gallery holds only the good exhibit");
     let shot = run.shot("projection", 6.0);
     assert!(bright(&shot, (440, 100, 840, 620), 150.0) > 0.2, "the model still shows");
+}
+
+#[test]
+fn the_windows_say_the_kiosk_is_preparing_while_a_new_scan_is_imported() {
+    // A new scan of 2.5 M points without normals: the kiosk imports it into the cache before the
+    // gallery opens (a few seconds here, minutes for a museum's scans), its windows open first
+    // and say so.
+    let content = tempfile::tempdir().expect("temp dir");
+    let exhibit = content.path().join("sphere");
+    std::fs::create_dir_all(&exhibit).expect("mkdir");
+    let n = 2_500_000u32;
+    let mut ply = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {n}\nproperty float x\nproperty float y\n"
+    )
+    .into_bytes();
+    ply.extend_from_slice(b"property float z\nend_header\n");
+    // A Fibonacci sphere of radius 0.3: even, and the same at every run.
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    for i in 0..n {
+        let y = 1.0 - 2.0 * (f64::from(i) + 0.5) / f64::from(n);
+        let r = (1.0 - y * y).sqrt();
+        let a = golden * f64::from(i);
+        for c in [r * a.cos(), y, r * a.sin()] {
+            ply.extend_from_slice(&((0.3 * c) as f32).to_le_bytes());
+        }
+    }
+    std::fs::write(exhibit.join("sphere.ply"), ply).expect("write scan");
+    let script = Script::new().wait(1.5).cancel(99);
+    let run = run_in(content.path(), &script, &[1.0], "", 1.0);
+    assert!(!run.stderr.contains("ERROR"), "the kiosk logged errors:\n{}", run.stderr);
+    let at = |needle: &str| {
+        run.stderr.find(needle).unwrap_or_else(|| panic!("no \"{needle}\" in the log:\n{}", run.stderr))
+    };
+    assert!(
+        at("windows open: preparing the exhibits") < at("importing sphere.ply: done"),
+        "the windows opened before the import ended:\n{}",
+        run.stderr
+    );
+    // Its first frame: the words in English (large) and Italian, and a dot of the pulse lit, on
+    // both windows; the controller's small print at its foot.
+    let projection = run.tagged("projection", "preparing");
+    let controller = run.tagged("controller", "preparing");
+    let (pw, ph) = projection.dimensions();
+    let (cw, ch) = controller.dimensions();
+    let words = bright(&projection, (pw / 10, ph * 34 / 100, pw * 9 / 10, ph / 2), 150.0);
+    assert!(words > 0.02, "the words on the projection: {words:.3} of the band bright");
+    assert!(amber(&projection, (0, 0, pw, ph)) > 0.0, "a lit dot on the projection");
+    let foot = bright(&controller, (0, ch * 84 / 100, cw, ch * 94 / 100), 100.0);
+    assert!(foot > 0.005, "the small print on the controller: {foot:.3}");
+    let bare = bright(&projection, (0, ph * 84 / 100, pw, ph * 94 / 100), 100.0);
+    assert_eq!(bare, 0.0, "no small print on the projection");
+    // Then the kiosk runs as ever: the sphere in the gallery.
+    let shot = run.shot("projection", 1.0);
+    assert!(
+        bright(&shot, (pw * 4 / 10, ph * 4 / 10, pw * 6 / 10, ph * 6 / 10), 60.0) > 0.5,
+        "the model shows"
+    );
 }
 
 /// Fraction of the pixels of a region in the interface's amber (the Light button when on, the

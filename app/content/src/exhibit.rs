@@ -61,11 +61,37 @@ pub fn open_model(dir: &Path) -> anyhow::Result<MappedStore> {
 }
 
 /// [`open_model`] with the cache in `cache`. The store made from a scan replaces the cache's
-/// stores of earlier versions of that scan ([`sweep_cache`]).
+/// stores of earlier versions of that scan ([`sweep_cache`]). The reader's warnings of the scan
+/// are logged, whether it was imported now or before.
 pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
+    let (store, warnings) = open_model_warned(dir, cache, &mut |_| {})?;
+    log_warnings(dir, &warnings);
+    Ok(store)
+}
+
+/// Logs the reader's `warnings` of the exhibit `dir`'s scan ([`open_model_warned`]).
+pub fn log_warnings(dir: &Path, warnings: &[String]) {
+    if warnings.is_empty() {
+        return;
+    }
+    let name = model_file(dir).ok().and_then(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()));
+    for warning in warnings {
+        tracing::warn!("exhibit {}: {}: {warning}", dir.display(), name.as_deref().unwrap_or("model"));
+    }
+}
+
+/// [`open_model_in`] without logging the reader's warnings: the store, and what the reader warned
+/// of when it imported the scan (a line each, kept beside the cached store: every start and
+/// `kiosk check` name them, not only the first; none for a store). Each line the import logs
+/// is also given to `progress` (the kiosk shows the last one while it prepares).
+pub fn open_model_warned(
+    dir: &Path,
+    cache: &Path,
+    progress: &mut dyn FnMut(&str),
+) -> anyhow::Result<(MappedStore, Vec<String>)> {
     let file = model_file(dir)?;
     if file.extension().is_some_and(|e| e.eq_ignore_ascii_case("kstore")) {
-        return crate::open_store(&file);
+        return Ok((crate::open_store(&file)?, Vec::new()));
     }
     // Whatever the working directory, so that the files it names are noted by the same paths by
     // every program sharing the cache (the kiosk, `kiosk check`, the authoring tool).
@@ -77,7 +103,12 @@ pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
     let store = cache.join(name);
     // A cached store is used while the files its scan names (textures, material libraries,
     // buffers) are as they were.
-    let cached = || crate::open_store(&store).ok().filter(|_| Inputs::unchanged(&store));
+    let cached = || {
+        crate::open_store(&store)
+            .ok()
+            .filter(|_| Inputs::unchanged(&store))
+            .map(|s| (s, read_warnings(&store)))
+    };
     let opened = match cached() {
         Some(s) => s,
         None => {
@@ -88,9 +119,11 @@ pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
                 Some(s) => s,
                 None => {
                     let started = std::time::SystemTime::now();
-                    let report = import_logged(dir, &file, cache, &lock, &options)?;
+                    let report = import_logged(dir, &file, cache, &lock, &options, progress)?;
+                    // Before the note that makes the store count as cached.
+                    write_warnings(&store, &report.warnings);
                     Inputs::note(&store, &report.inputs, started);
-                    crate::open_store(&store)?
+                    (crate::open_store(&store)?, report.warnings)
                 }
             }
         }
@@ -104,13 +137,14 @@ pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
 }
 
 /// Imports the scan `file` of the exhibit `dir` into the store of `cache` that `lock` holds,
-/// logging what it does: a large scan takes minutes, and the kiosk opens its windows after.
+/// logging what it does (a large scan takes minutes), each line also given to `also`.
 fn import_logged(
     dir: &Path,
     file: &Path,
     cache: &Path,
     lock: &OutputLock,
     options: &ImportOptions,
+    also: &mut dyn FnMut(&str),
 ) -> anyhow::Result<crate::import::ImportReport> {
     let name = file.file_name().map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into());
     let label = format!("exhibit {}: importing {name}", dir.display());
@@ -121,13 +155,45 @@ fn import_logged(
         file.display(),
         cache.display()
     );
-    let mut progress = crate::import::logged(label.clone(), std::time::Duration::from_secs(10));
-    let report = import_locked(file, lock, options, &mut progress)?;
-    for warning in &report.warnings {
-        tracing::warn!("{label}: {warning}");
-    }
-    tracing::info!("{label}: done, {report}");
+    also(&label);
+    let report = {
+        let mut progress = crate::import::logged(label.clone(), std::time::Duration::from_secs(10), also);
+        import_locked(file, lock, options, &mut progress)?
+    };
+    let done = format!("{label}: done, {report}");
+    tracing::info!("{done}");
+    also(&done);
     Ok(report)
+}
+
+/// Ending of the note beside each cached store of its reader's warnings (JSON, a string each).
+const WARNINGS: &str = "warnings";
+
+/// Notes the reader's `warnings` beside the cached `store` (no note when there are none).
+fn write_warnings(store: &Path, warnings: &[String]) {
+    let path = store.with_extension(WARNINGS);
+    let _ = std::fs::remove_file(&path);
+    if warnings.is_empty() {
+        return;
+    }
+    let written =
+        serde_json::to_string(warnings).map_err(std::io::Error::other).and_then(|t| std::fs::write(&path, t));
+    if let Err(e) = written {
+        tracing::warn!("cannot note the reader's warnings of {} in the cache: {e}", store.display());
+    }
+}
+
+/// The reader's warnings noted beside the cached `store` (none without a note; an unreadable
+/// note is one warning that says so).
+fn read_warnings(store: &Path) -> Vec<String> {
+    let path = store.with_extension(WARNINGS);
+    match std::fs::read_to_string(&path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
+        Err(e) => vec![format!("the note of the reader's warnings {} cannot be read: {e}", path.display())],
+        Ok(text) => serde_json::from_str(&text).unwrap_or_else(|e| {
+            vec![format!("the note of the reader's warnings {} cannot be read: {e}", path.display())]
+        }),
+    }
 }
 
 /// Ending of the note beside each cached store that names the scan it was made from.
@@ -222,6 +288,7 @@ pub fn sweep_cache(cache: &Path, keep: &Path, source: &Path) {
         }
         let _ = std::fs::remove_file(&note);
         let _ = std::fs::remove_file(store.with_extension(Inputs::ENDING));
+        let _ = std::fs::remove_file(store.with_extension(WARNINGS));
         let _ = std::fs::remove_file(lock.lock_file());
     }
 }

@@ -55,11 +55,18 @@ pub type Progress<'a> = dyn FnMut(Phase, u64, u64) + 'a;
 pub fn quiet(_: Phase, _: u64, _: u64) {}
 
 /// A [`Progress`] for the log, where no terminal shows a bar (a kiosk filling its cache at
-/// start, before its windows open): a line at each phase's start and end (done = total, or the
-/// last report before the next phase) and at most one every `every` within it, each starting
-/// with `label`.
-pub fn logged(label: String, every: std::time::Duration) -> impl FnMut(Phase, u64, u64) {
-    progress_lines(label, every, Instant::now, |line| tracing::info!("{line}"))
+/// start, its windows saying it prepares): a line at each phase's start and end (done = total,
+/// or the last report before the next phase) and at most one every `every` within it, each
+/// starting with `label`, and each also given to `also` (the kiosk's windows show the last).
+pub fn logged<'a>(
+    label: String,
+    every: std::time::Duration,
+    also: &'a mut dyn FnMut(&str),
+) -> impl FnMut(Phase, u64, u64) + 'a {
+    progress_lines(label, every, Instant::now, move |line| {
+        tracing::info!("{line}");
+        also(&line);
+    })
 }
 
 /// [`logged`] with its clock `now` and where its lines go, `emit`.

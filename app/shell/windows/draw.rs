@@ -27,6 +27,8 @@ pub struct Words {
     pub light: &'static str,
     /// Hint while the light button is on.
     pub light_hint: &'static str,
+    /// While the exhibits load, before the gallery opens.
+    pub preparing: &'static str,
 }
 
 /// The interface words of a language.
@@ -44,6 +46,7 @@ pub fn words(lang: &str) -> &'static Words {
             inset_hint: "Tieni premuto per andarci",
             light: "Luce",
             light_hint: "Trascina per spostare la luce · di lato fa risaltare i rilievi",
+            preparing: "La mostra si sta preparando. Un momento, per favore.",
         },
         _ => &Words {
             back: "Gallery",
@@ -57,6 +60,7 @@ pub fn words(lang: &str) -> &'static Words {
             inset_hint: "Hold to go there",
             light: "Light",
             light_hint: "Drag to move the light · from the side it brings out the relief",
+            preparing: "The exhibition is being prepared. One moment, please.",
         },
     }
 }
@@ -80,6 +84,45 @@ fn wrapped(
     color: Color32,
 ) -> std::sync::Arc<egui::Galley> {
     p.layout(text.to_string(), FontId::proportional(size), color, width)
+}
+
+/// What both windows show while the exhibits load ([`super::preparing`]).
+pub struct PreparingView<'a> {
+    /// The kiosk's languages: the words are said in each.
+    pub languages: &'a [String],
+    /// Seconds since loading started (the pulse moves with them).
+    pub t: f64,
+    /// Small print for the technician (the controller only): which exhibit, how long, the
+    /// import's last line.
+    pub detail: Option<&'a str>,
+}
+
+/// Draws the preparing screen: the words in every language, a pulse of three dots, and on the
+/// controller the small print.
+pub fn preparing(ctx: &egui::Context, v: &PreparingView<'_>) {
+    let screen = ctx.content_rect();
+    let p = ctx.layer_painter(egui::LayerId::background());
+    p.rect_filled(screen, 0.0, Color32::from_rgb(18, 20, 26));
+    let width = screen.width() * 0.8;
+    let mut y = screen.height() * 0.36;
+    for (i, lang) in v.languages.iter().enumerate() {
+        let (size, color) = if i == 0 { (34.0, Color32::WHITE) } else { (26.0, Color32::from_gray(170)) };
+        let g = wrapped(&p, words(lang).preparing, size, width, color);
+        let h = g.size().y;
+        p.galley(pos2(screen.center().x - g.size().x / 2.0, y), g, color);
+        y += h + 18.0;
+    }
+    // Three dots, one bright at a time: the kiosk is alive.
+    let lit = (v.t / 0.5).floor().rem_euclid(3.0) as usize;
+    for k in 0..3 {
+        let c = pos2(screen.center().x + (k as f32 - 1.0) * 28.0, y + 30.0);
+        p.circle_filled(c, 7.0, if k == lit { ACCENT } else { Color32::from_gray(70) });
+    }
+    if let Some(detail) = v.detail {
+        let g = wrapped(&p, detail, 18.0, screen.width() * 0.9, Color32::from_gray(150));
+        let at = pos2(screen.center().x - g.size().x / 2.0, screen.height() * 0.94 - g.size().y);
+        p.galley(at, g, Color32::from_gray(150));
+    }
 }
 
 /// What the controller window shows.

@@ -24,7 +24,7 @@ pub struct Exhibit {
     pub front: Option<glam::DVec3>,
     /// Its start view, framed once (the gallery's turntable asks at every frame, and a turned
     /// model's framing reads samples of the store).
-    start: std::cell::OnceCell<Camera>,
+    start: std::sync::OnceLock<Camera>,
 }
 
 impl Exhibit {
@@ -49,12 +49,23 @@ impl Exhibit {
 }
 
 /// Loads the exhibits of the configuration; a broken one is logged and left out, the rest
-/// shows. Errors only when none loads.
-pub fn load_exhibits(config: &Config) -> anyhow::Result<Vec<Exhibit>> {
+/// shows. Errors only when none loads. `status` is told which exhibit loads (`(i, n, dir)`) and
+/// each line its import into the cache logs (a new scan takes minutes: the windows show it).
+pub fn load_exhibits(config: &Config, status: &mut dyn FnMut(Status)) -> anyhow::Result<Vec<Exhibit>> {
     let mut out = Vec::new();
-    for dir in config.exhibit_dirs()? {
-        let store = match kiosk_content::exhibit::open_model(&dir) {
-            Ok(s) => s,
+    let dirs = config.exhibit_dirs()?;
+    let cache = kiosk_content::exhibit::cache_dir();
+    for (i, dir) in dirs.iter().enumerate() {
+        status(Status::Exhibit(i, dirs.len()));
+        let dir = dir.clone();
+        let opened = kiosk_content::exhibit::open_model_warned(&dir, &cache, &mut |line| {
+            status(Status::Line(line.to_string()))
+        });
+        let store = match opened {
+            Ok((s, warnings)) => {
+                kiosk_content::exhibit::log_warnings(&dir, &warnings);
+                s
+            }
             Err(e) => {
                 tracing::error!("exhibit {}: {e:#}; left out of the gallery", dir.display());
                 continue;
@@ -86,11 +97,20 @@ pub fn load_exhibits(config: &Config) -> anyhow::Result<Vec<Exhibit>> {
             graph,
             up: pose.up,
             front: pose.front,
-            start: std::cell::OnceCell::new(),
+            start: std::sync::OnceLock::new(),
         });
     }
     anyhow::ensure!(!out.is_empty(), "no exhibit could be loaded from {}", config.content.display());
     Ok(out)
+}
+
+/// What [`load_exhibits`] is doing, for the windows to show while it works.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Status {
+    /// Exhibit i (from 0) of n starts loading.
+    Exhibit(usize, usize),
+    /// A line its import into the cache logs (which scan, the phase and how far).
+    Line(String),
 }
 
 /// The kiosk's behaviour settings from the configuration, for a projection of `size` pixels and

@@ -10,11 +10,13 @@
 //! everything else are made again on a new device from the same adapter; images and model nodes
 //! load again on demand. `ISOKIOSK_RENEW=never` keeps the device, to measure the difference.
 
+use super::draw::{self, PreparingView};
 use super::paint::Painter;
 use super::surface::{Canvas, GpuWindow};
 use super::{INSET_SIZE, config};
 use anyhow::Context as _;
 use kiosk_render::{Blit, Gpu, Renderer, wgpu};
+use std::path::Path;
 use std::sync::Arc;
 use winit::window::Window;
 
@@ -67,5 +69,39 @@ impl Graphics {
         let inset_id = proj_painter.register(&gpu, &inset.view);
         gpu.check()?;
         Ok(Self { gpu, projection, controller, renderer, blit, proj_painter, ctrl_painter, inset, inset_id })
+    }
+
+    /// Draws the preparing screen in both windows ([`super::preparing`]; the small print on the
+    /// controller only) and presents it, waiting for the GPU: it is drawn a few times a second.
+    pub fn draw_preparing(&mut self, view: &PreparingView<'_>) {
+        let projection = PreparingView { detail: None, ..*view };
+        let clear = Some(wgpu::Color::BLACK);
+        let (target, size) = (self.projection.canvas.ui_view.clone(), self.projection.canvas.size);
+        self.proj_painter
+            .paint(&self.gpu, &target, size, clear, view.t, |ctx| draw::preparing(ctx, &projection));
+        let (target, size) = (self.controller.canvas.ui_view.clone(), self.controller.canvas.size);
+        self.ctrl_painter.paint(&self.gpu, &target, size, clear, view.t, |ctx| draw::preparing(ctx, view));
+        for (name, w) in [("projection", &mut self.projection), ("controller", &mut self.controller)] {
+            if let Err(e) = w.present(&self.gpu, &self.blit) {
+                tracing::warn!("{name} window: {e}");
+            }
+        }
+        let index = self.gpu.queue.submit([]);
+        if let Err(e) =
+            self.gpu.device.poll(wgpu::PollType::Wait { submission_index: Some(index), timeout: None })
+        {
+            tracing::warn!("GPU wait: {e}");
+        }
+    }
+
+    /// Saves both canvases as PNG, `{window}-{tag}.png` in `dir`.
+    pub fn capture(&self, dir: &Path, tag: &str) -> anyhow::Result<()> {
+        for (name, w) in [("projection", &self.projection), ("controller", &self.controller)] {
+            let img = kiosk_render::read_back(&self.gpu, &w.canvas.texture, w.canvas.size)?;
+            let path = dir.join(format!("{name}-{tag}.png"));
+            img.save(&path).with_context(|| format!("cannot write {}", path.display()))?;
+            tracing::info!("screenshot {}", path.display());
+        }
+        Ok(())
     }
 }

@@ -17,12 +17,13 @@ mod exhibits;
 mod graphics;
 pub mod heap;
 mod paint;
+mod preparing;
 mod surface;
 mod visits;
 
 use anyhow::Context as _;
 use config::Config;
-pub use exhibits::{Exhibit, kiosk_settings, load_exhibits};
+pub use exhibits::{Exhibit, Status, kiosk_settings, load_exhibits};
 use graphics::{Graphics, Windows};
 use kiosk_content::snapshot::{lit, node_light, start_light};
 use kiosk_core::camera::{GoTo, SceneRef};
@@ -88,11 +89,11 @@ pub struct RunOptions {
 /// Runs the kiosk until the window closes (or the session ends).
 pub fn run(opts: RunOptions) -> anyhow::Result<()> {
     heap::settle();
-    // Loaded before the app, which borrows them: the kiosk holds its models while it lives.
-    let exhibits = load_exhibits(&opts.config)?;
+    // The exhibits load while the windows say so.
+    let loader = preparing::Loader::spawn(opts.config.clone())?;
     let event_loop = EventLoop::new().context("cannot open the display (is DISPLAY set?)")?;
     event_loop.set_control_flow(ControlFlow::Poll);
-    let mut app = App { opts, exhibits: &exhibits, state: None, error: None };
+    let mut app = App { opts, loader, exhibits: &[], display: None, state: None, ctrl: false, error: None };
     event_loop.run_app(&mut app)?;
     if let Some(s) = app.state.as_mut() {
         // The visit in progress ends with the kiosk; its statistics are kept.
@@ -104,15 +105,33 @@ pub fn run(opts: RunOptions) -> anyhow::Result<()> {
     }
 }
 
-struct App<'a> {
+struct App {
     opts: RunOptions,
-    /// The gallery, loaded by [`run`] and borrowed by the kiosk for as long as the app lives.
-    exhibits: &'a [Exhibit],
-    state: Option<Running<'a>>,
+    /// The exhibits loading ([`preparing`]).
+    loader: preparing::Loader,
+    /// The gallery once loaded, borrowed by the kiosk: kept until the process ends (the kiosk
+    /// holds its models while it lives), so leaked when it comes.
+    exhibits: &'static [Exhibit],
+    /// The windows while the exhibits load.
+    display: Option<Display>,
+    /// The kiosk, once the exhibits are loaded.
+    state: Option<Running<'static>>,
+    /// Whether Ctrl is held (for Ctrl+Q).
+    ctrl: bool,
     error: Option<anyhow::Error>,
 }
 
-/// Everything that exists once the windows are open.
+/// The windows and the device they draw with, open before the exhibits are loaded.
+struct Display {
+    /// The device and everything drawn with it, renewed at each reset ([`graphics`]).
+    gfx: Graphics,
+    instance: wgpu::Instance,
+    adapter: wgpu::Adapter,
+    /// When the preparing screen was last drawn.
+    drawn: Option<Instant>,
+}
+
+/// Everything that exists once the windows are open and the exhibits loaded.
 struct Running<'a> {
     /// The device and everything drawn with it, renewed at each reset ([`graphics`]).
     gfx: Graphics,
@@ -132,8 +151,6 @@ struct Running<'a> {
     probes: drive::Probes,
     /// The mouse, a finger of its own.
     pointer: drive::Pointer,
-    /// Whether Ctrl is held (for Ctrl+Q).
-    ctrl: bool,
     gallery_cut: Option<(usize, Cut)>,
     render_settings: RenderSettings,
     reported: HashSet<String>,
@@ -145,8 +162,9 @@ struct Running<'a> {
     visits: visits::VisitLog,
 }
 
-impl<'a> App<'a> {
-    fn open(&mut self, el: &ActiveEventLoop) -> anyhow::Result<Running<'a>> {
+impl App {
+    /// Opens both windows and a device on an adapter that can present to them.
+    fn open(&self, el: &ActiveEventLoop) -> anyhow::Result<Display> {
         let cfg = &self.opts.config;
         let monitors: Vec<_> = el.available_monitors().collect();
         let attrs = |title: &str, w: &config::WindowConfig, x: i32| {
@@ -201,6 +219,74 @@ impl<'a> App<'a> {
         let gfx =
             Graphics::new(&instance, &adapter, &Windows { projection: pw, controller: cw, config: cfg })?;
         tracing::info!("GPU: {} ({:?})", gfx.gpu.adapter.name, gfx.gpu.adapter.backend);
+        if !self.opts.screenshot_at.is_empty() {
+            std::fs::create_dir_all(&self.opts.screenshot_dir)
+                .with_context(|| format!("cannot create {}", self.opts.screenshot_dir.display()))?;
+        }
+        Ok(Display { gfx, instance, adapter, drawn: None })
+    }
+
+    /// Draws the preparing screen when it is due (its first frame at once, saved with the
+    /// screenshots if there are any), and starts the kiosk once the exhibits are loaded.
+    fn prepare(&mut self, el: &ActiveEventLoop) {
+        let Some(d) = self.display.as_mut() else { return };
+        let first = d.drawn.is_none();
+        let done = self.loader.poll();
+        if first || (done.is_none() && d.drawn.is_some_and(|t| t.elapsed() >= preparing::FRAME)) {
+            d.drawn = Some(Instant::now());
+            let detail = self.loader.detail();
+            let view = draw::PreparingView {
+                languages: &self.opts.config.languages,
+                t: self.loader.elapsed(),
+                detail: Some(&detail),
+            };
+            d.gfx.draw_preparing(&view);
+            if first {
+                tracing::info!("windows open: preparing the exhibits");
+                if !self.opts.screenshot_at.is_empty()
+                    && let Err(e) = d.gfx.capture(&self.opts.screenshot_dir, "preparing")
+                {
+                    self.error = Some(e);
+                    el.exit();
+                    return;
+                }
+            }
+        }
+        let started = match done {
+            None => {
+                el.set_control_flow(ControlFlow::WaitUntil(Instant::now() + preparing::FRAME));
+                return;
+            }
+            Some(Ok(exhibits)) => {
+                tracing::info!(
+                    "the gallery opens: {} exhibit(s), loaded in {:.1} s",
+                    exhibits.len(),
+                    self.loader.elapsed()
+                );
+                self.exhibits = Box::leak(exhibits.into_boxed_slice());
+                match self.display.take() {
+                    Some(d) => self.start(d),
+                    None => return,
+                }
+            }
+            Some(Err(e)) => Err(e),
+        };
+        match started {
+            Ok(s) => {
+                self.state = Some(s);
+                el.set_control_flow(ControlFlow::Poll);
+            }
+            Err(e) => {
+                self.error = Some(e);
+                el.exit();
+            }
+        }
+    }
+
+    /// The kiosk on the open windows, with the exhibits loaded.
+    fn start(&self, d: Display) -> anyhow::Result<Running<'static>> {
+        let Display { gfx, instance, adapter, .. } = d;
+        let cfg = &self.opts.config;
         let ctrl = gfx.controller.canvas.size;
         let seed = self
             .opts
@@ -216,7 +302,7 @@ impl<'a> App<'a> {
             seed,
         );
         let fps = settings.explore.fps;
-        let exhibits: &'a [Exhibit] = self.exhibits;
+        let exhibits: &'static [Exhibit] = self.exhibits;
         let models = exhibits
             .iter()
             .map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref(), up: e.up, front: e.front })
@@ -244,10 +330,6 @@ impl<'a> App<'a> {
             )),
             None => None,
         };
-        if !self.opts.screenshot_at.is_empty() {
-            std::fs::create_dir_all(&self.opts.screenshot_dir)
-                .with_context(|| format!("cannot create {}", self.opts.screenshot_dir.display()))?;
-        }
         let input = drive::Input::new(self.opts.session.clone(), self.opts.run_for.is_some(), record);
         let soak = self.opts.run_for.map(|_| self.opts.warmup);
         let probes = drive::Probes::new(trace, self.opts.screenshot_at.clone(), soak, visits.dir());
@@ -263,7 +345,6 @@ impl<'a> App<'a> {
             drive: Stepper::new(fps, input),
             probes,
             pointer: drive::Pointer::default(),
-            ctrl: false,
             gallery_cut: None,
             render_settings: self.opts.config.render_settings(),
             reported: HashSet::new(),
@@ -274,13 +355,16 @@ impl<'a> App<'a> {
     }
 }
 
-impl ApplicationHandler for App<'_> {
+impl ApplicationHandler for App {
     fn resumed(&mut self, el: &ActiveEventLoop) {
-        if self.state.is_some() {
+        if self.state.is_some() || self.display.is_some() {
             return;
         }
         match self.open(el) {
-            Ok(s) => self.state = Some(s),
+            Ok(d) => {
+                self.display = Some(d);
+                self.prepare(el);
+            }
             Err(e) => {
                 self.error = Some(e);
                 el.exit();
@@ -289,19 +373,31 @@ impl ApplicationHandler for App<'_> {
     }
 
     fn window_event(&mut self, el: &ActiveEventLoop, id: WindowId, event: WindowEvent) {
-        let Some(s) = self.state.as_mut() else { return };
-        let on_controller = id == s.gfx.controller.window.id();
+        // The windows' own events, while preparing too.
+        let gfx = match (&mut self.state, &mut self.display) {
+            (Some(s), _) => &mut s.gfx,
+            (None, Some(d)) => &mut d.gfx,
+            (None, None) => return,
+        };
+        let on_controller = id == gfx.controller.window.id();
         match event {
-            WindowEvent::CloseRequested => el.exit(),
-            WindowEvent::Resized(size) => {
-                let w = if on_controller { &mut s.gfx.controller } else { &mut s.gfx.projection };
-                w.resize(&s.gfx.gpu, (size.width, size.height));
+            WindowEvent::CloseRequested => {
+                el.exit();
+                return;
             }
-            WindowEvent::ModifiersChanged(m) => s.ctrl = m.state().control_key(),
+            WindowEvent::Resized(size) => {
+                let w = if on_controller { &mut gfx.controller } else { &mut gfx.projection };
+                w.resize(&gfx.gpu, (size.width, size.height));
+                return;
+            }
+            WindowEvent::ModifiersChanged(m) => {
+                self.ctrl = m.state().control_key();
+                return;
+            }
             WindowEvent::KeyboardInput { event, .. } => {
                 // Ctrl+Q, or Escape in windowed mode, closes the kiosk (technicians, not visitors).
                 if event.state == ElementState::Pressed
-                    && s.ctrl
+                    && self.ctrl
                     && let winit::keyboard::Key::Character(c) = &event.logical_key
                     && c.as_str().eq_ignore_ascii_case("q")
                 {
@@ -312,7 +408,13 @@ impl ApplicationHandler for App<'_> {
                 {
                     el.exit();
                 }
+                return;
             }
+            _ => {}
+        }
+        // Touches and the mouse, once the kiosk runs.
+        let Some(s) = self.state.as_mut() else { return };
+        match event {
             _ if !on_controller || self.opts.session.is_some() => {}
             WindowEvent::Touch(t) => {
                 let (x, y) = s.normalised(t.location.x, t.location.y);
@@ -356,7 +458,7 @@ impl ApplicationHandler for App<'_> {
     }
 
     fn about_to_wait(&mut self, el: &ActiveEventLoop) {
-        let Some(s) = self.state.as_mut() else { return };
+        let Some(s) = self.state.as_mut() else { return self.prepare(el) };
         match s.tick(&self.opts, self.exhibits) {
             Ok(true) if s.renew => {
                 if let Some(s) = self.state.take() {
@@ -443,7 +545,7 @@ impl Running<'_> {
             self.probes.stepped(&frame, t, self.drive.clock().steps(), dt)?;
             if let Some(at) = self.probes.screenshot_due(t) {
                 self.render(exhibits, t)?;
-                self.capture(&opts.screenshot_dir, at)?;
+                self.gfx.capture(&opts.screenshot_dir, &format!("{at:.1}"))?;
             }
             if end.is_some_and(|e| t >= e) {
                 break;
@@ -770,17 +872,6 @@ impl Running<'_> {
         self.gfx.ctrl_painter.paint(&self.gfx.gpu, &target, size, Some(wgpu::Color::BLACK), t, |ctx| {
             draw::controller(ctx, &view)
         });
-    }
-
-    /// Saves both canvases as PNG.
-    fn capture(&mut self, dir: &Path, at: f64) -> anyhow::Result<()> {
-        for (name, w) in [("projection", &self.gfx.projection), ("controller", &self.gfx.controller)] {
-            let img = kiosk_render::read_back(&self.gfx.gpu, &w.canvas.texture, w.canvas.size)?;
-            let path = dir.join(format!("{name}-{at:.1}.png"));
-            img.save(&path).with_context(|| format!("cannot write {}", path.display()))?;
-            tracing::info!("screenshot {}", path.display());
-        }
-        Ok(())
     }
 }
 

@@ -1,0 +1,86 @@
+//! Before the gallery: the windows open at once and say that the kiosk is preparing while the
+//! exhibits load on a thread of their own. A new or changed scan is imported into the cache
+//! first, a quarter of an hour for a billion points here; a dark wall for that long looks
+//! broken to a visitor and hung to a technician. The projection says it in the kiosk's
+//! languages with a pulse that moves; the controller says the same, with the exhibit loading, the
+//! time taken and the line its import last logged (which scan, the phase, how far).
+//!
+//! The screen is drawn four times a second, so that it costs the import next to nothing, and
+//! the kiosk starts at the first frame after the exhibits are loaded. Its first frame is drawn as
+//! soon as the windows are open, even when the exhibits are already there, and saved beside the
+//! session's screenshots when there are any.
+
+use super::config::Config;
+use super::exhibits::{Exhibit, Status, load_exhibits};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+/// Time between two frames of the preparing screen.
+pub(super) const FRAME: Duration = Duration::from_millis(250);
+
+/// What the loading thread says.
+enum Message {
+    Status(Status),
+    Done(anyhow::Result<Vec<Exhibit>>),
+}
+
+/// The exhibits loading on their thread, and what it last said.
+pub(super) struct Loader {
+    rx: mpsc::Receiver<Message>,
+    /// Exhibit i (from 0) of n loading.
+    exhibit: Option<(usize, usize)>,
+    /// The last line its import logged.
+    line: String,
+    since: Instant,
+}
+
+impl Loader {
+    /// Starts loading the exhibits of `config` on a thread of their own.
+    pub fn spawn(config: Config) -> anyhow::Result<Self> {
+        let (tx, rx) = mpsc::channel();
+        std::thread::Builder::new().name("exhibits".into()).spawn(move || {
+            let mut status = |s: Status| drop(tx.send(Message::Status(s)));
+            let loaded = load_exhibits(&config, &mut status);
+            drop(tx.send(Message::Done(loaded)));
+        })?;
+        Ok(Self { rx, exhibit: None, line: String::new(), since: Instant::now() })
+    }
+
+    /// Takes in what the thread said: the exhibits (or why none loads) once it is done.
+    pub fn poll(&mut self) -> Option<anyhow::Result<Vec<Exhibit>>> {
+        loop {
+            match self.rx.try_recv() {
+                Ok(Message::Status(Status::Exhibit(i, n))) => {
+                    self.exhibit = Some((i, n));
+                    self.line.clear();
+                }
+                Ok(Message::Status(Status::Line(line))) => self.line = line,
+                Ok(Message::Done(loaded)) => return Some(loaded),
+                Err(mpsc::TryRecvError::Empty) => return None,
+                Err(mpsc::TryRecvError::Disconnected) => {
+                    return Some(Err(anyhow::anyhow!(
+                        "the thread loading the exhibits ended without a word"
+                    )));
+                }
+            }
+        }
+    }
+
+    /// Seconds since loading started.
+    pub fn elapsed(&self) -> f64 {
+        self.since.elapsed().as_secs_f64()
+    }
+
+    /// The controller's small print: the exhibit loading, the time taken and the last line its
+    /// import logged.
+    pub fn detail(&self) -> String {
+        let secs = self.since.elapsed().as_secs();
+        let taken =
+            if secs >= 60 { format!("{} min {} s", secs / 60, secs % 60) } else { format!("{secs} s") };
+        let head = match self.exhibit {
+            Some((i, n)) => format!("exhibit {} of {n} · {taken}", i + 1),
+            None => taken,
+        };
+        if self.line.is_empty() { head } else { format!("{head}\n{}", self.line) }
+    }
+}
