@@ -59,8 +59,7 @@ impl Drop for ImportBar {
 }
 
 /// For `kiosk import`: on Ctrl+C or SIGTERM, removes the import's work directory, then exits
-/// with status 130. (The kiosk keeps the default signal handling; a directory left by an import
-/// it was running is removed by the next import to that store.)
+/// with status 130. (The kiosk closes on them as on Ctrl+Q: `windows::run`.)
 pub fn clean_up_imports_on_signals() {
     let installed = ctrlc::set_handler(|| {
         kiosk_content::import::remove_work_dirs();

@@ -379,6 +379,98 @@ fn the_windows_say_the_kiosk_is_preparing_while_a_new_scan_is_imported() {
     );
 }
 
+/// Starts the kiosk under Xvfb on the exhibits of `content` (its cache and state in `dir`,
+/// playing `script`), sends it SIGTERM `delay` seconds after its log says `when`, and returns
+/// its exit status and its log.
+fn stopped_by_a_signal(content: &Path, dir: &Path, script: &Script, when: &str, delay: f64) -> (i32, String) {
+    let session = dir.join("session.jsonl");
+    std::fs::write(&session, script.session().to_jsonl()).expect("write session");
+    let cfg = dir.join("kiosk.toml");
+    std::fs::write(&cfg, format!("content = {:?}\n", content.display().to_string())).expect("config");
+    let log = dir.join("kiosk.log");
+    let runtime = std::env::temp_dir().join("xdg-runtime-isokiosk-tests");
+    std::fs::create_dir_all(&runtime).expect("runtime dir");
+    // The shell waits for the line (at most a minute), then stops the kiosk as a service
+    // manager would.
+    let script = r#"
+        "$KIOSK" --config "$CFG" --windowed --silent --session "$SESSION" 2> "$LOG" &
+        pid=$!
+        for i in $(seq 600); do grep -q "$WHEN" "$LOG" && break; sleep 0.1; done
+        sleep "$DELAY"
+        kill -TERM $pid
+        wait $pid
+        echo "status $?"
+    "#;
+    let out = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 2200x800x24 -nolisten tcp", "sh", "-c", script])
+        .env("KIOSK", env!("CARGO_BIN_EXE_kiosk"))
+        .env("CFG", &cfg)
+        .env("SESSION", &session)
+        .env("LOG", &log)
+        .env("WHEN", when)
+        .env("DELAY", delay.to_string())
+        .env("ISOKIOSK_CACHE", dir.join("cache"))
+        .env("ISOKIOSK_STATE", dir.join("state"))
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .env("RUST_LOG", "info,wgpu_core=warn,wgpu_hal=warn,naga=warn")
+        .output()
+        .expect("xvfb-run must be installed (.ci/setup installs xvfb and xauth)");
+    let log = std::fs::read_to_string(&log).unwrap_or_default();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let status = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("status "))
+        .and_then(|s| s.trim().parse().ok())
+        .unwrap_or_else(|| panic!("no status: {stdout}\n{}\n{log}", String::from_utf8_lossy(&out.stderr)));
+    (status, log)
+}
+
+#[test]
+fn a_signal_closes_the_kiosk_as_ctrl_q_does_while_preparing_and_while_running() {
+    // Stopped by its service during a visit: the kiosk closes, and the visit in progress is in
+    // the log with its end.
+    let content = tempfile::tempdir().expect("temp dir");
+    crate::common::copy_dir(&self::content().join("demosthenes"), &content.path().join("demosthenes"));
+    let dir = tempfile::tempdir().expect("temp dir");
+    let visit = Script::new().wait(0.3).tap(1, 0.5, 0.86).wait(120.0).cancel(99);
+    let (status, log) = stopped_by_a_signal(content.path(), dir.path(), &visit, "the gallery opens", 2.0);
+    assert_eq!(status, 0, "{log}");
+    assert!(log.contains("a signal asks the kiosk to close"), "{log}");
+    let visits = std::fs::read_to_string(dir.path().join("state/visits.jsonl")).expect("visit log");
+    let visits: Vec<Value> = visits.lines().map(|l| serde_json::from_str(l).expect("JSON line")).collect();
+    assert_eq!(visits.len(), 1, "{visits:?}");
+    assert_eq!(visits[0]["ended"], "exit");
+
+    // Stopped while it imports a new scan: it closes at once, without the import's work
+    // directory (the next start imports again).
+    let exhibit = content.path().join("demosthenes");
+    std::fs::remove_dir_all(&exhibit).expect("remove");
+    std::fs::create_dir_all(&exhibit).expect("mkdir");
+    let n = 2_500_000u32;
+    let mut ply = format!("ply\nformat binary_little_endian 1.0\nelement vertex {n}\n").into_bytes();
+    ply.extend_from_slice(b"property float x\nproperty float y\nproperty float z\nend_header\n");
+    for i in 0..n {
+        let (u, v) = (f64::from(i % 1600) / 1600.0, f64::from(i / 1600) / 1600.0);
+        for c in [u, v, 0.05 * (u * 20.0).sin() * (v * 20.0).cos()] {
+            ply.extend_from_slice(&(c as f32).to_le_bytes());
+        }
+    }
+    std::fs::write(exhibit.join("relief.ply"), ply).expect("write scan");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (status, log) =
+        stopped_by_a_signal(content.path(), dir.path(), &visit, "windows open: preparing the exhibits", 0.0);
+    assert_eq!(status, 0, "{log}");
+    assert!(log.contains("importing relief.ply: reading") && !log.contains("relief.ply: done"), "{log}");
+    assert!(log.contains("closed while preparing the exhibits"), "{log}");
+    let left: Vec<String> = std::fs::read_dir(dir.path().join("cache"))
+        .expect("cache")
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(".import-"))
+        .collect();
+    assert!(left.is_empty(), "work directories left: {left:?}\n{log}");
+}
+
 /// Fraction of the pixels of a region in the interface's amber (the Light button when on, the
 /// light's dot on its pad).
 fn amber(img: &RgbaImage, (x0, y0, x1, y1): (u32, u32, u32, u32)) -> f64 {

@@ -39,6 +39,7 @@ use std::collections::HashSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 use winit::application::ApplicationHandler;
 use winit::event::{ElementState, MouseButton, TouchPhase, WindowEvent};
@@ -86,18 +87,33 @@ pub struct RunOptions {
     pub trace: Option<PathBuf>,
 }
 
-/// Runs the kiosk until the window closes (or the session ends).
+/// Set by SIGINT, SIGTERM or SIGHUP (a service stopped, the machine shutting down): the kiosk
+/// closes as on Ctrl+Q, at its next frame (a quarter of a second while it prepares).
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// Runs the kiosk until the window closes (or the session ends, or a signal stops it).
 pub fn run(opts: RunOptions) -> anyhow::Result<()> {
     heap::settle();
+    if let Err(e) = ctrlc::set_handler(|| STOP.store(true, Ordering::SeqCst)) {
+        tracing::warn!("cannot close cleanly on signals ({e}): a stopped kiosk loses the visit in progress");
+    }
     // The exhibits load while the windows say so.
     let loader = preparing::Loader::spawn(opts.config.clone())?;
     let event_loop = EventLoop::new().context("cannot open the display (is DISPLAY set?)")?;
     event_loop.set_control_flow(ControlFlow::Poll);
     let mut app = App { opts, loader, exhibits: &[], display: None, state: None, ctrl: false, error: None };
     event_loop.run_app(&mut app)?;
-    if let Some(s) = app.state.as_mut() {
+    match app.state.as_mut() {
         // The visit in progress ends with the kiosk; its statistics are kept.
-        s.persist(app.exhibits, true);
+        Some(s) => s.persist(app.exhibits, true),
+        // Closed while preparing: an import under way stops with the process, without its work
+        // directory; the next start imports again.
+        None => {
+            if app.error.is_none() {
+                tracing::info!("closed while preparing the exhibits");
+            }
+            kiosk_content::import::remove_work_dirs();
+        }
     }
     match app.error {
         Some(e) => Err(e),
@@ -458,6 +474,11 @@ impl ApplicationHandler for App {
     }
 
     fn about_to_wait(&mut self, el: &ActiveEventLoop) {
+        if STOP.load(Ordering::SeqCst) {
+            tracing::info!("a signal asks the kiosk to close: closing");
+            el.exit();
+            return;
+        }
         let Some(s) = self.state.as_mut() else { return self.prepare(el) };
         match s.tick(&self.opts, self.exhibits) {
             Ok(true) if s.renew => {
