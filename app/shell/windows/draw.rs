@@ -112,8 +112,8 @@ pub fn preparing(ctx: &egui::Context, v: &PreparingView<'_>) {
         p.galley(pos2(screen.center().x - g.size().x / 2.0, y), g, color);
         y += h + 18.0;
     }
-    // Three dots, one bright at a time: the kiosk is alive.
-    let lit = (v.t / 0.5).floor().rem_euclid(3.0) as usize;
+    // Three dots, one bright at a time, a step a second: the kiosk is alive.
+    let lit = v.t.floor().rem_euclid(3.0) as usize;
     for k in 0..3 {
         let c = pos2(screen.center().x + (k as f32 - 1.0) * 28.0, y + 30.0);
         p.circle_filled(c, 7.0, if k == lit { ACCENT } else { Color32::from_gray(70) });

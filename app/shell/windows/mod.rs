@@ -88,7 +88,7 @@ pub struct RunOptions {
 }
 
 /// Set by SIGINT, SIGTERM or SIGHUP (a service stopped, the machine shutting down): the kiosk
-/// closes as on Ctrl+Q, at its next frame (a quarter of a second while it prepares).
+/// closes as on Ctrl+Q, at its next frame (within a quarter of a second while it prepares).
 static STOP: AtomicBool = AtomicBool::new(false);
 
 /// Runs the kiosk until the window closes (or the session ends, or a signal stops it).
@@ -143,8 +143,8 @@ struct Display {
     gfx: Graphics,
     instance: wgpu::Instance,
     adapter: wgpu::Adapter,
-    /// When the preparing screen was last drawn.
-    drawn: Option<Instant>,
+    /// The second of loading (from 0) the preparing screen was last drawn in.
+    drawn: Option<u64>,
 }
 
 /// Everything that exists once the windows are open and the exhibits loaded.
@@ -248,8 +248,9 @@ impl App {
         let Some(d) = self.display.as_mut() else { return };
         let first = d.drawn.is_none();
         let done = self.loader.poll();
-        if first || (done.is_none() && d.drawn.is_some_and(|t| t.elapsed() >= preparing::FRAME)) {
-            d.drawn = Some(Instant::now());
+        let second = (self.loader.elapsed() / preparing::FRAME.as_secs_f64()) as u64;
+        if first || (done.is_none() && d.drawn != Some(second)) {
+            d.drawn = Some(second);
             let detail = self.loader.detail();
             let view = draw::PreparingView {
                 languages: &self.opts.config.languages,
@@ -270,7 +271,7 @@ impl App {
         }
         let started = match done {
             None => {
-                el.set_control_flow(ControlFlow::WaitUntil(Instant::now() + preparing::FRAME));
+                el.set_control_flow(ControlFlow::WaitUntil(Instant::now() + preparing::POLL));
                 return;
             }
             Some(Ok(exhibits)) => {

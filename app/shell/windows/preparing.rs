@@ -5,10 +5,13 @@
 //! languages with a pulse that moves; the controller says the same, with the exhibit loading, the
 //! time taken and the line its import last logged (which scan, the phase, how far).
 //!
-//! The screen is drawn four times a second, so that it costs the import next to nothing, and
-//! the kiosk starts at the first frame after the exhibits are loaded. Its first frame is drawn as
-//! soon as the windows are open, even when the exhibits are already there, and saved beside the
-//! session's screenshots when there are any.
+//! The screen is drawn once a second (the pulse steps with it): on lavapipe a frame of both
+//! windows costs 70–110 ms of CPU, so the screen takes about a tenth of a core from the import
+//! (four frames a second took a quarter; measured as the rasteriser threads' CPU time over 6 s
+//! of a 10 M-point import). The loading thread is asked four times a second, so the kiosk starts
+//! within a quarter of a second of the exhibits being loaded. The first frame is drawn as soon as the windows are open, even
+//! when the exhibits are already there, and saved beside the session's screenshots when there
+//! are any.
 
 use super::config::Config;
 use super::exhibits::{Exhibit, Status, load_exhibits};
@@ -16,7 +19,10 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 /// Time between two frames of the preparing screen.
-pub(super) const FRAME: Duration = Duration::from_millis(250);
+pub(super) const FRAME: Duration = Duration::from_secs(1);
+
+/// Time between two looks at what the loading thread said.
+pub(super) const POLL: Duration = Duration::from_millis(250);
 
 /// What the loading thread says.
 enum Message {
