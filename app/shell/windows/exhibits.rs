@@ -49,15 +49,14 @@ impl Exhibit {
 }
 
 /// Loads the exhibits of the configuration; a broken one is logged and left out, the rest
-/// shows. Errors only when none loads. `status` is told which exhibit loads (`(i, n, dir)`) and
-/// each line its import into the cache logs (a new scan takes minutes: the windows show it).
+/// shows. Errors only when none loads. `status` is told which exhibit loads and each line its
+/// import into the cache logs (a new scan takes minutes: the windows show it).
 pub fn load_exhibits(config: &Config, status: &mut dyn FnMut(Status)) -> anyhow::Result<Vec<Exhibit>> {
     let mut out = Vec::new();
     let dirs = config.exhibit_dirs()?;
-    let cache = kiosk_content::exhibit::cache_dir();
-    for (i, dir) in dirs.iter().enumerate() {
-        status(Status::Exhibit(i, dirs.len()));
-        let dir = dir.clone();
+    let (n, cache) = (dirs.len(), kiosk_content::exhibit::cache_dir());
+    for (i, dir) in dirs.into_iter().enumerate() {
+        status(Status::Exhibit(i, n));
         let opened = kiosk_content::exhibit::open_model_warned(&dir, &cache, &mut |line| {
             status(Status::Line(line.to_string()))
         });

@@ -72,7 +72,7 @@ impl Graphics {
     }
 
     /// Draws the preparing screen in both windows ([`super::preparing`]; the small print on the
-    /// controller only) and presents it, waiting for the GPU: it is drawn a few times a second.
+    /// controller only) and presents it, waiting for the GPU (it is drawn once a second).
     pub fn draw_preparing(&mut self, view: &PreparingView<'_>) {
         let projection = PreparingView { detail: None, ..*view };
         let clear = Some(wgpu::Color::BLACK);

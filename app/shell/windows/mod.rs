@@ -9,6 +9,10 @@
 //!
 //! The same touch events that drive the windows are what `--record` writes and what `--session`
 //! plays back, so a recorded visit replays through the real windows, and through `kiosk replay`.
+//!
+//! The windows open first and say the kiosk is preparing while the exhibits load ([`preparing`]);
+//! Ctrl+Q, closing a window or a signal (SIGTERM, SIGINT, SIGHUP) ends the kiosk the same way, the
+//! visit in progress logged.
 
 pub mod config;
 mod draw;
@@ -475,7 +479,7 @@ impl ApplicationHandler for App {
     }
 
     fn about_to_wait(&mut self, el: &ActiveEventLoop) {
-        if STOP.load(Ordering::SeqCst) {
+        if STOP.swap(false, Ordering::SeqCst) {
             tracing::info!("a signal asks the kiosk to close: closing");
             el.exit();
             return;
