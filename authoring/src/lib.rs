@@ -51,9 +51,28 @@ impl Project {
         Self::open_in(dir, &kiosk_content::exhibit::cache_dir())
     }
 
-    /// [`Project::open`] with the import cache in `cache`.
+    /// [`Project::open`] with the import cache in `cache`. The problems include what the reader
+    /// warned of when it imported the scan (now or before), as warnings.
     pub fn open_in(dir: &Path, cache: &Path) -> anyhow::Result<(Self, Vec<Problem>)> {
-        let store = kiosk_content::exhibit::open_model_in(dir, cache)?;
+        Self::open_reporting(dir, cache, &mut |_| {})
+    }
+
+    /// [`Project::open_in`], giving `progress` each line the import of the scan logs, if it is
+    /// imported (the window shows the last: [`ui::opening`]).
+    pub fn open_reporting(
+        dir: &Path,
+        cache: &Path,
+        progress: &mut dyn FnMut(&str),
+    ) -> anyhow::Result<(Self, Vec<Problem>)> {
+        let (store, warnings) = kiosk_content::exhibit::open_model_warned(dir, cache, progress)?;
+        let model = kiosk_content::exhibit::model_file(dir)?;
+        let model =
+            model.file_name().map_or_else(|| model.display().to_string(), |n| n.to_string_lossy().into());
+        let read_problems = warnings.into_iter().map(|w| Problem {
+            node: None,
+            msg: format!("model {model}: {w}"),
+            dropped: false,
+        });
         let graph_file = dir.join("graph.xml");
         let original = match std::fs::read_to_string(&graph_file) {
             Ok(text) => Some(text),
@@ -69,7 +88,7 @@ impl Project {
             Some((g, p)) => (g, p),
             None => (InfoGraph { default_lang: "en".into(), ..InfoGraph::default() }, Vec::new()),
         };
-        problems.extend(up_problems);
+        problems.extend(read_problems.chain(up_problems));
         Ok((
             Self {
                 dir: dir.to_path_buf(),

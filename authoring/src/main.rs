@@ -2,6 +2,8 @@
 //! scan or store; its graph.xml is created on the first save).
 
 use clap::Parser;
+use kiosk_author::ui::AuthorApp;
+use kiosk_author::ui::opening::{self, Opening};
 use std::path::PathBuf;
 
 #[derive(Parser)]
@@ -24,21 +26,21 @@ fn main() -> anyhow::Result<()> {
         }))
         .init();
     let cli = Cli::parse();
-    let (project, problems) = kiosk_author::Project::open(&cli.exhibit)?;
-    let gpu = match kiosk_content::snapshot::offscreen() {
+    // The exhibit opens while the window says so (its scan may be imported first: minutes).
+    let mut opening = Opening::spawn(&cli.exhibit, &kiosk_content::exhibit::cache_dir())?;
+    let mut gpu = Some(match kiosk_content::snapshot::offscreen() {
         Ok(g) => Some(g),
         Err(e) => {
             tracing::error!("no GPU for the live view and thumbnails: {e:#}");
             None
         }
-    };
-    let mut app = kiosk_author::ui::AuthorApp::new(project, problems, gpu);
+    });
     // The kiosk's statistics of this exhibit, where the kiosk keeps them (read only).
     let stats = kiosk_content::stats::stats_path(
         &kiosk_content::stats::state_dir(),
         &kiosk_content::stats::exhibit_name(&cli.exhibit),
     );
-    app.visitor_stats = kiosk_content::stats::load_stats(&stats);
+    let mut app: Option<AuthorApp> = None;
     // The window's device as the kiosk's: no shader debug info, which a debug build would ask
     // for by default and which Debian 12's Vulkan validation layers reject (they predate WGSL as
     // a SPIR-V source language) with an error at every pipeline; validation as WGPU_* says.
@@ -54,6 +56,23 @@ fn main() -> anyhow::Result<()> {
         },
         ..Default::default()
     };
-    eframe::run_ui_native("IsoKiosk author", options, move |ui, _frame| app.ui(ui))
-        .map_err(|e| anyhow::anyhow!("{e}"))
+    eframe::run_ui_native("IsoKiosk author", options, move |ui, _frame| {
+        if app.is_none()
+            && let Some((project, problems)) = opening.poll()
+        {
+            let mut opened = AuthorApp::new(project, problems, gpu.take().flatten());
+            opened.visitor_stats = kiosk_content::stats::load_stats(&stats);
+            app = Some(opened);
+        }
+        match app.as_mut() {
+            Some(app) => app.ui(ui),
+            None => {
+                egui::CentralPanel::default().show(ui, |ui| opening.ui(ui));
+                if opening.failed().is_none() {
+                    ui.ctx().request_repaint_after(opening::POLL);
+                }
+            }
+        }
+    })
+    .map_err(|e| anyhow::anyhow!("{e}"))
 }

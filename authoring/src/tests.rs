@@ -290,3 +290,26 @@ fn a_nodes_light_is_checked_normalised_and_undoable() {
     assert!(p.undo());
     assert_eq!(p.graph.nodes[0].light, Some(DVec3::new(-0.6, 0.0, 0.8)));
 }
+
+#[test]
+fn the_readers_warnings_are_problems_of_the_project_also_once_cached() {
+    // A scan the reader takes with a warning (an unknown header keyword): the curator sees it
+    // among the problems, at every opening, not only the one that imported it.
+    let dir = tempfile::tempdir().expect("tmp");
+    let mut ply = String::from("ply\nformat ascii 1.0\nelement vertex 400\nproperty float x\n");
+    ply += "property float y\nproperty float z\nscanner_angle 12\nend_header\n";
+    for i in 0..400 {
+        ply += &format!("{} {} {}\n", (i % 20) as f32 * 0.01, (i / 20) as f32 * 0.01, 0.002 * (i % 3) as f32);
+    }
+    std::fs::write(dir.path().join("grid.ply"), ply).expect("write");
+    for opening in ["first", "cached"] {
+        let (_, problems) = open(dir.path()).expect("open");
+        let said: Vec<String> = problems.iter().map(ToString::to_string).collect();
+        assert_eq!(
+            said,
+            ["model grid.ply: header line 7: unknown keyword 'scanner_angle' ignored"],
+            "{opening}"
+        );
+        assert!(!problems[0].dropped, "{opening}: a warning");
+    }
+}

@@ -385,3 +385,50 @@ fn a_views_light_is_steered_in_the_live_view_and_saved_with_it() {
     click(&mut h, "Undo");
     assert_eq!(h.state().project.graph.nodes[i].light, Some(light.dir));
 }
+
+#[test]
+fn the_window_says_what_it_does_while_the_exhibit_opens_and_why_it_cannot() {
+    use kiosk_author::ui::opening::Opening;
+    use std::time::{Duration, Instant};
+    // Polls until the opening ends (a project, or a failure), at most a minute.
+    fn settle(o: &mut Opening) -> Option<(Project, Vec<kiosk_core::graph::Problem>)> {
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(60) {
+            if let Some(p) = o.poll() {
+                return Some(p);
+            }
+            if o.failed().is_some() {
+                return None;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        panic!("the exhibit did not open in a minute");
+    }
+    // A scan not yet in the cache: the window says it opens the exhibit at once, then the
+    // project comes with what the import last logged.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let scan = repo().join("content/demosthenes/demosthenes-low-res.obj");
+    std::fs::copy(scan, dir.path().join("bust.obj")).expect("copy the scan");
+    let mut opening = Opening::spawn(dir.path(), &dir.path().join(".import-cache")).expect("spawn");
+    {
+        let mut h = Harness::new_ui(|ui| opening.ui(ui));
+        h.run_steps(1);
+        h.get_by_label_contains(&format!("Opening {}", dir.path().display()));
+        h.get_by_label_contains("A new or changed scan is imported into the cache first");
+    }
+    let (project, problems) = settle(&mut opening).expect("the exhibit opens");
+    assert!(opening.line().contains("importing bust.obj: done"), "{}", opening.line());
+    assert!(problems.is_empty(), "{problems:?}");
+    assert!(project.store.header().leaf_point_count > 9000);
+    // A scan the reader cannot read: the window says why, naming the file.
+    let broken = tempfile::tempdir().expect("temp dir");
+    std::fs::write(broken.path().join("model.obj"), "v 1 2 three\nf 1 2 9\n").expect("write");
+    let mut opening = Opening::spawn(broken.path(), &broken.path().join(".import-cache")).expect("spawn");
+    assert!(settle(&mut opening).is_none());
+    let why = opening.failed().expect("a reason").to_string();
+    assert!(why.contains("model.obj"), "{why}");
+    let mut h = Harness::new_ui(|ui| opening.ui(ui));
+    h.run_steps(1);
+    h.get_by_label_contains(&format!("Cannot open {}", broken.path().display()));
+    h.get_by_label_contains("model.obj");
+}

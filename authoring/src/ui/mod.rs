@@ -8,9 +8,11 @@
 //! autosave file guards against crashes.
 //!
 //! This module holds [`AuthorApp`]'s state and its actions (what a click does, callable from
-//! tests by name); `panels` draws the window and calls them; `graph_view` draws the story graph.
+//! tests by name); `panels` draws the window and calls them; `graph_view` draws the story graph;
+//! `opening` is the window while the exhibit opens (its scan imported into the cache first).
 
 pub mod graph_view;
+pub mod opening;
 mod panels;
 
 use crate::{Project, preview};
