@@ -114,7 +114,20 @@ pub fn open_model_warned(
         None => {
             // Another kiosk or replay may be importing the same scan: wait for it, then use its
             // store.
-            let lock = OutputLock::acquire(&store)?;
+            let lock = match OutputLock::try_acquire(&store)? {
+                Some(lock) => lock,
+                None => {
+                    let line = format!(
+                        "exhibit {}: another program (a kiosk, `kiosk check`, the authoring tool) is importing \
+                         {} into the cache; waiting for it",
+                        dir.display(),
+                        file.display()
+                    );
+                    tracing::info!("{line}");
+                    progress(&line);
+                    OutputLock::acquire(&store)?
+                }
+            };
             match cached() {
                 Some(s) => s,
                 None => {
