@@ -41,6 +41,9 @@ fn main() -> anyhow::Result<()> {
         &kiosk_content::stats::exhibit_name(&cli.exhibit),
     );
     let mut app: Option<AuthorApp> = None;
+    // Why the exhibit could not be opened, for the exit status once the window is closed.
+    let failed = std::rc::Rc::new(std::cell::RefCell::new(None::<String>));
+    let failure = failed.clone();
     // The window's device as the kiosk's: no shader debug info, which a debug build would ask
     // for by default and which Debian 12's Vulkan validation layers reject (they predate WGSL as
     // a SPIR-V source language) with an error at every pipeline; validation as WGPU_* says.
@@ -56,7 +59,7 @@ fn main() -> anyhow::Result<()> {
         },
         ..Default::default()
     };
-    eframe::run_ui_native("IsoKiosk author", options, move |ui, _frame| {
+    let ran = eframe::run_ui_native("IsoKiosk author", options, move |ui, _frame| {
         if app.is_none()
             && let Some((project, problems)) = opening.poll()
         {
@@ -68,11 +71,19 @@ fn main() -> anyhow::Result<()> {
             Some(app) => app.ui(ui),
             None => {
                 egui::CentralPanel::default().show(ui, |ui| opening.ui(ui));
-                if opening.failed().is_none() {
-                    ui.ctx().request_repaint_after(opening::POLL);
+                match opening.failed() {
+                    None => ui.ctx().request_repaint_after(opening::POLL),
+                    Some(why) => *failure.borrow_mut() = Some(why.to_string()),
                 }
             }
         }
-    })
-    .map_err(|e| anyhow::anyhow!("{e}"))
+    });
+    // Closed while its scan was being imported: the import stops with the process, without its
+    // work directory.
+    kiosk_content::import::remove_work_dirs();
+    ran.map_err(|e| anyhow::anyhow!("{e}"))?;
+    match failed.borrow_mut().take() {
+        Some(why) => Err(anyhow::anyhow!("cannot open {}: {why}", cli.exhibit.display())),
+        None => Ok(()),
+    }
 }

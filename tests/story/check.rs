@@ -225,7 +225,7 @@ fn a_check_that_finds_the_scan_being_imported_says_it_waits_and_imports_nothing(
         assert!(*ok && out.contains("model relief.ply: 2000000 samples"), "{out}");
     }
     let imported = |out: &str| out.contains("importing relief.ply: done");
-    let waited = |out: &str| out.contains("is importing") && out.contains("into the cache; waiting for it");
+    let waited = |out: &str| out.contains("another import is writing it; waiting");
     assert!(imported(&a.1) != imported(&b.1), "one imports:\n{}\n---\n{}", a.1, b.1);
     let (importer, waiter) = if imported(&a.1) { (&a.1, &b.1) } else { (&b.1, &a.1) };
     assert!(waited(waiter) && !waited(importer), "the other waits:\n{waiter}");

@@ -379,6 +379,35 @@ fn the_windows_say_the_kiosk_is_preparing_while_a_new_scan_is_imported() {
     );
 }
 
+#[test]
+fn a_kiosk_without_a_loadable_exhibit_says_why_and_exits() {
+    // No exhibit at all: the windows open, say they prepare, then the kiosk ends with the reason
+    // (a service's log must name it, whatever the windows took).
+    let content = tempfile::tempdir().expect("temp dir");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let cfg = dir.path().join("kiosk.toml");
+    std::fs::write(&cfg, format!("content = {:?}\n", content.path().display().to_string())).expect("config");
+    let runtime = std::env::temp_dir().join("xdg-runtime-isokiosk-tests");
+    std::fs::create_dir_all(&runtime).expect("runtime dir");
+    let out = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 2200x800x24 -nolisten tcp"])
+        .arg(env!("CARGO_BIN_EXE_kiosk"))
+        .arg("--config")
+        .arg(&cfg)
+        .args(["--windowed", "--silent"])
+        .env("ISOKIOSK_CACHE", dir.path().join("cache"))
+        .env("ISOKIOSK_STATE", dir.path().join("state"))
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .env("RUST_LOG", "info,wgpu_core=warn,wgpu_hal=warn,naga=warn")
+        .output()
+        .expect("xvfb-run must be installed (.ci/setup installs xvfb and xauth)");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    let said = format!("no exhibit could be loaded from {}", content.path().display());
+    assert!(stderr.contains(&said), "{said}:\n{stderr}");
+    assert!(!stderr.contains("without a word"), "{stderr}");
+}
+
 /// Starts the kiosk under Xvfb on the exhibits of `content` (its cache and state in `dir`,
 /// playing `script`), sends it SIGTERM `delay` seconds after its log says `when`, and returns
 /// its exit status and its log.

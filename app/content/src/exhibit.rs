@@ -82,7 +82,8 @@ pub fn log_warnings(dir: &Path, warnings: &[String]) {
 
 /// [`open_model_in`] without logging the reader's warnings: the store, and what the reader warned
 /// of when it imported the scan (a line each, kept beside the cached store: every start and
-/// `kiosk check` name them, not only the first; none for a store). Each line the import logs
+/// `kiosk check` name them, not only the first; none for a store, or for a scan an older kiosk
+/// cached). Each line the import logs
 /// is also given to `progress` (the kiosk shows the last one while it prepares).
 pub fn open_model_warned(
     dir: &Path,
@@ -117,14 +118,13 @@ pub fn open_model_warned(
             let lock = match OutputLock::try_acquire(&store)? {
                 Some(lock) => lock,
                 None => {
-                    let line = format!(
+                    // The lock logs that it waits; the kiosk's window says it too.
+                    progress(&format!(
                         "exhibit {}: another program (a kiosk, `kiosk check`, the authoring tool) is importing \
                          {} into the cache; waiting for it",
                         dir.display(),
                         file.display()
-                    );
-                    tracing::info!("{line}");
-                    progress(&line);
+                    ));
                     OutputLock::acquire(&store)?
                 }
             };

@@ -352,12 +352,16 @@ fn cannot_write_in(dir: &Path, file: &Path, e: std::io::Error) -> anyhow::Error 
 }
 
 /// Work directories of the imports running in this process (see [`remove_work_dirs`]).
-static ACTIVE: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+/// `true` once [`remove_work_dirs`] ran: no import starts after it.
+static ACTIVE: Mutex<(bool, Vec<PathBuf>)> = Mutex::new((false, Vec::new()));
 
-/// Removes the work directories of the imports running in this process: for a program's signal
-/// handler, before it exits (the imports' own cleanup does not run then).
+/// Removes the work directories of the imports running in this process, and keeps any other
+/// from starting: for a program that ends before its imports do (on a signal, or closed while
+/// importing on another thread), whose imports' own cleanup does not run then.
 pub fn remove_work_dirs() {
-    for dir in ACTIVE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).iter() {
+    let mut active = ACTIVE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    active.0 = true;
+    for dir in &active.1 {
         let _ = std::fs::remove_dir_all(dir);
     }
 }
@@ -371,8 +375,11 @@ impl WorkDir {
     fn create(out: &Path) -> anyhow::Result<Self> {
         let (dir, name) = split(out)?;
         let path = dir.join(format!(".{name}.import-{}", std::process::id()));
+        // Made and noted under the lock, so that a removal never misses it.
+        let mut active = ACTIVE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        anyhow::ensure!(!active.0, "not imported: the program is closing");
         std::fs::create_dir_all(&path).map_err(|e| cannot_write_in(&dir, &path, e))?;
-        ACTIVE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(path.clone());
+        active.1.push(path.clone());
         Ok(Self { path })
     }
 }
@@ -380,7 +387,7 @@ impl WorkDir {
 impl Drop for WorkDir {
     fn drop(&mut self) {
         let _ = std::fs::remove_dir_all(&self.path);
-        ACTIVE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).retain(|p| p != &self.path);
+        ACTIVE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).1.retain(|p| p != &self.path);
     }
 }
 

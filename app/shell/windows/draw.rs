@@ -105,9 +105,17 @@ pub fn preparing(ctx: &egui::Context, v: &PreparingView<'_>) {
     p.rect_filled(screen, 0.0, Color32::from_rgb(18, 20, 26));
     let width = screen.width() * 0.8;
     let mut y = screen.height() * 0.36;
-    for (i, lang) in v.languages.iter().enumerate() {
-        let (size, color) = if i == 0 { (34.0, Color32::WHITE) } else { (26.0, Color32::from_gray(170)) };
-        let g = wrapped(&p, words(lang).preparing, size, width, color);
+    // Each language once: one without a table of its own would repeat the English.
+    let mut said: Vec<&str> = Vec::new();
+    for lang in v.languages {
+        let text = words(lang).preparing;
+        if said.contains(&text) {
+            continue;
+        }
+        let (size, color) =
+            if said.is_empty() { (34.0, Color32::WHITE) } else { (26.0, Color32::from_gray(170)) };
+        said.push(text);
+        let g = wrapped(&p, text, size, width, color);
         let h = g.size().y;
         p.galley(pos2(screen.center().x - g.size().x / 2.0, y), g, color);
         y += h + 18.0;

@@ -43,7 +43,7 @@ use std::collections::HashSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
 use winit::application::ApplicationHandler;
 use winit::event::{ElementState, MouseButton, TouchPhase, WindowEvent};
@@ -91,21 +91,38 @@ pub struct RunOptions {
     pub trace: Option<PathBuf>,
 }
 
-/// Set by SIGINT, SIGTERM or SIGHUP (a service stopped, the machine shutting down): the kiosk
-/// closes as on Ctrl+Q, at its next frame (within a quarter of a second while it prepares).
-static STOP: AtomicBool = AtomicBool::new(false);
+/// Signals received (SIGINT, SIGTERM or SIGHUP: a service stopped, the machine shutting down).
+/// At the first the kiosk closes as on Ctrl+Q, at its next frame (within a quarter of a second
+/// while it prepares); a second, when it has not (a frame stuck on the GPU, Ctrl+C pressed
+/// again), ends the process at once, without its imports' work directories.
+static STOPS: AtomicU32 = AtomicU32::new(0);
 
 /// Runs the kiosk until the window closes (or the session ends, or a signal stops it).
 pub fn run(opts: RunOptions) -> anyhow::Result<()> {
     heap::settle();
-    if let Err(e) = ctrlc::set_handler(|| STOP.store(true, Ordering::SeqCst)) {
+    let stop = || {
+        if STOPS.fetch_add(1, Ordering::SeqCst) > 0 {
+            kiosk_content::import::remove_work_dirs();
+            std::process::exit(130);
+        }
+    };
+    if let Err(e) = ctrlc::set_handler(stop) {
         tracing::warn!("cannot close cleanly on signals ({e}): a stopped kiosk loses the visit in progress");
     }
+    let event_loop = EventLoop::new().context("cannot open the display (is DISPLAY set?)")?;
     // The exhibits load while the windows say so.
     let loader = preparing::Loader::spawn(opts.config.clone())?;
-    let event_loop = EventLoop::new().context("cannot open the display (is DISPLAY set?)")?;
     event_loop.set_control_flow(ControlFlow::Poll);
-    let mut app = App { opts, loader, exhibits: &[], display: None, state: None, ctrl: false, error: None };
+    let mut app = App {
+        opts,
+        loader,
+        exhibits: &[],
+        display: None,
+        state: None,
+        ctrl: false,
+        stopping: false,
+        error: None,
+    };
     event_loop.run_app(&mut app)?;
     match app.state.as_mut() {
         // The visit in progress ends with the kiosk; its statistics are kept.
@@ -138,6 +155,8 @@ struct App {
     state: Option<Running<'static>>,
     /// Whether Ctrl is held (for Ctrl+Q).
     ctrl: bool,
+    /// Whether a signal's close was logged.
+    stopping: bool,
     error: Option<anyhow::Error>,
 }
 
@@ -149,6 +168,8 @@ struct Display {
     adapter: wgpu::Adapter,
     /// The second of loading (from 0) the preparing screen was last drawn in.
     drawn: Option<u64>,
+    /// Whether the preparing screen must be drawn again now (a window was resized).
+    redraw: bool,
 }
 
 /// Everything that exists once the windows are open and the exhibits loaded.
@@ -243,18 +264,24 @@ impl App {
             std::fs::create_dir_all(&self.opts.screenshot_dir)
                 .with_context(|| format!("cannot create {}", self.opts.screenshot_dir.display()))?;
         }
-        Ok(Display { gfx, instance, adapter, drawn: None })
+        Ok(Display { gfx, instance, adapter, drawn: None, redraw: false })
     }
 
     /// Draws the preparing screen when it is due (its first frame at once, saved with the
     /// screenshots if there are any), and starts the kiosk once the exhibits are loaded.
     fn prepare(&mut self, el: &ActiveEventLoop) {
+        // After an error, the loop is ending: nothing more to draw or start (winit may still
+        // call back within this turn).
+        if self.error.is_some() {
+            return;
+        }
         let Some(d) = self.display.as_mut() else { return };
         let first = d.drawn.is_none();
         let done = self.loader.poll();
         let second = (self.loader.elapsed() / preparing::FRAME.as_secs_f64()) as u64;
-        if first || (done.is_none() && d.drawn != Some(second)) {
+        if first || (done.is_none() && (d.redraw || d.drawn != Some(second))) {
             d.drawn = Some(second);
+            d.redraw = false;
             let detail = self.loader.detail();
             let view = draw::PreparingView {
                 languages: &self.opts.config.languages,
@@ -409,6 +436,10 @@ impl ApplicationHandler for App {
             WindowEvent::Resized(size) => {
                 let w = if on_controller { &mut gfx.controller } else { &mut gfx.projection };
                 w.resize(&gfx.gpu, (size.width, size.height));
+                // A new canvas is blank: the preparing screen is drawn again at once.
+                if let Some(d) = self.display.as_mut() {
+                    d.redraw = true;
+                }
                 return;
             }
             WindowEvent::ModifiersChanged(m) => {
@@ -479,8 +510,11 @@ impl ApplicationHandler for App {
     }
 
     fn about_to_wait(&mut self, el: &ActiveEventLoop) {
-        if STOP.swap(false, Ordering::SeqCst) {
-            tracing::info!("a signal asks the kiosk to close: closing");
+        if STOPS.load(Ordering::SeqCst) > 0 {
+            if !self.stopping {
+                tracing::info!("a signal asks the kiosk to close: closing");
+                self.stopping = true;
+            }
             el.exit();
             return;
         }

@@ -32,7 +32,8 @@ enum Message {
 
 /// The exhibits loading on their thread, and what it last said.
 pub(super) struct Loader {
-    rx: mpsc::Receiver<Message>,
+    /// The thread's messages; `None` once it said it is done.
+    rx: Option<mpsc::Receiver<Message>>,
     /// Exhibit i (from 0) of n loading.
     exhibit: Option<(usize, usize)>,
     /// The last line its import logged.
@@ -49,21 +50,26 @@ impl Loader {
             let loaded = load_exhibits(&config, &mut status);
             drop(tx.send(Message::Done(loaded)));
         })?;
-        Ok(Self { rx, exhibit: None, line: String::new(), since: Instant::now() })
+        Ok(Self { rx: Some(rx), exhibit: None, line: String::new(), since: Instant::now() })
     }
 
-    /// Takes in what the thread said: the exhibits (or why none loads) once it is done.
+    /// Takes in what the thread said: the exhibits (or why none loads) when it is done, once.
     pub fn poll(&mut self) -> Option<anyhow::Result<Vec<Exhibit>>> {
+        let rx = self.rx.as_ref()?;
         loop {
-            match self.rx.try_recv() {
+            match rx.try_recv() {
                 Ok(Message::Status(Status::Exhibit(i, n))) => {
                     self.exhibit = Some((i, n));
                     self.line.clear();
                 }
                 Ok(Message::Status(Status::Line(line))) => self.line = line,
-                Ok(Message::Done(loaded)) => return Some(loaded),
+                Ok(Message::Done(loaded)) => {
+                    self.rx = None;
+                    return Some(loaded);
+                }
                 Err(mpsc::TryRecvError::Empty) => return None,
                 Err(mpsc::TryRecvError::Disconnected) => {
+                    self.rx = None;
                     return Some(Err(anyhow::anyhow!(
                         "the thread loading the exhibits ended without a word"
                     )));
