@@ -18,6 +18,21 @@ pub fn cache() -> PathBuf {
     Path::new(env!("CARGO_TARGET_TMPDIR")).join("isokiosk-cache")
 }
 
+/// Writes a point cloud of `side` × `side` points without normals as a binary PLY at `path`: a
+/// rippled unit square (a scan a kiosk must estimate normals for, and import for a while).
+pub fn write_relief_ply(path: &Path, side: u32) {
+    let n = side * side;
+    let mut ply = format!("ply\nformat binary_little_endian 1.0\nelement vertex {n}\n").into_bytes();
+    ply.extend_from_slice(b"property float x\nproperty float y\nproperty float z\nend_header\n");
+    for i in 0..n {
+        let (u, v) = (f64::from(i % side) / f64::from(side), f64::from(i / side) / f64::from(side));
+        for c in [u, v, 0.05 * (u * 20.0).sin() * (v * 20.0).cos()] {
+            ply.extend_from_slice(&(c as f32).to_le_bytes());
+        }
+    }
+    std::fs::write(path, ply).expect("write scan");
+}
+
 /// Runs `kiosk snapshot --exhibit EXHIBIT -o OUT ARGS…` with the import cache in `cache` and
 /// reads the image it wrote.
 pub fn snapshot(exhibit: &Path, out: &Path, cache: &Path, args: &[&str]) -> image::RgbaImage {

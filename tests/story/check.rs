@@ -205,16 +205,7 @@ fn a_check_that_finds_the_scan_being_imported_says_it_waits_and_imports_nothing(
     let dir = tempfile::tempdir().expect("temp dir");
     let exhibit = dir.path().join("relief");
     std::fs::create_dir(&exhibit).expect("exhibit dir");
-    let n = 2_000_000u32;
-    let mut ply = format!("ply\nformat binary_little_endian 1.0\nelement vertex {n}\n").into_bytes();
-    ply.extend_from_slice(b"property float x\nproperty float y\nproperty float z\nend_header\n");
-    for i in 0..n {
-        let (u, v) = (f64::from(i % 1400) / 1400.0, f64::from(i / 1400) / 1400.0);
-        for c in [u, v, 0.05 * (u * 20.0).sin() * (v * 20.0).cos()] {
-            ply.extend_from_slice(&(c as f32).to_le_bytes());
-        }
-    }
-    std::fs::write(exhibit.join("relief.ply"), ply).expect("write scan");
+    common::write_relief_ply(&exhibit.join("relief.ply"), 1400);
     let cache = dir.path().join("cache");
     let (a, b) = std::thread::scope(|s| {
         let a = s.spawn(|| check_with_cache(&cache, &[&exhibit], false));
@@ -222,7 +213,7 @@ fn a_check_that_finds_the_scan_being_imported_says_it_waits_and_imports_nothing(
         (a.join().expect("first"), b.join().expect("second"))
     });
     for (ok, out) in [&a, &b] {
-        assert!(*ok && out.contains("model relief.ply: 2000000 samples"), "{out}");
+        assert!(*ok && out.contains("model relief.ply: 1960000 samples"), "{out}");
     }
     let imported = |out: &str| out.contains("importing relief.ply: done");
     let waited = |out: &str| out.contains("another import is writing it; waiting");

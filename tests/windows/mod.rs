@@ -475,16 +475,7 @@ fn a_signal_closes_the_kiosk_as_ctrl_q_does_while_preparing_and_while_running() 
     let exhibit = content.path().join("demosthenes");
     std::fs::remove_dir_all(&exhibit).expect("remove");
     std::fs::create_dir_all(&exhibit).expect("mkdir");
-    let n = 2_500_000u32;
-    let mut ply = format!("ply\nformat binary_little_endian 1.0\nelement vertex {n}\n").into_bytes();
-    ply.extend_from_slice(b"property float x\nproperty float y\nproperty float z\nend_header\n");
-    for i in 0..n {
-        let (u, v) = (f64::from(i % 1600) / 1600.0, f64::from(i / 1600) / 1600.0);
-        for c in [u, v, 0.05 * (u * 20.0).sin() * (v * 20.0).cos()] {
-            ply.extend_from_slice(&(c as f32).to_le_bytes());
-        }
-    }
-    std::fs::write(exhibit.join("relief.ply"), ply).expect("write scan");
+    crate::common::write_relief_ply(&exhibit.join("relief.ply"), 1600);
     let dir = tempfile::tempdir().expect("temp dir");
     let (status, log) =
         stopped_by_a_signal(content.path(), dir.path(), &visit, "windows open: preparing the exhibits", 0.0);
