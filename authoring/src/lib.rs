@@ -65,14 +65,8 @@ impl Project {
         progress: &mut dyn FnMut(&str),
     ) -> anyhow::Result<(Self, Vec<Problem>)> {
         let (store, warnings) = kiosk_content::exhibit::open_model_warned(dir, cache, progress)?;
-        let model = kiosk_content::exhibit::model_file(dir)?;
-        let model =
-            model.file_name().map_or_else(|| model.display().to_string(), |n| n.to_string_lossy().into());
-        let read_problems = warnings.into_iter().map(|w| Problem {
-            node: None,
-            msg: format!("model {model}: {w}"),
-            dropped: false,
-        });
+        let read_problems =
+            warnings.into_iter().map(|w| Problem { node: None, msg: format!("model {w}"), dropped: false });
         let graph_file = dir.join("graph.xml");
         let original = match std::fs::read_to_string(&graph_file) {
             Ok(text) => Some(text),

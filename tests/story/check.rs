@@ -123,8 +123,9 @@ fn kiosk_check_lists_what_the_kiosk_would_leave_out_naming_file_and_node() {
 
 #[test]
 fn importing_into_the_cache_is_logged_with_its_progress() {
-    // A kiosk fills its cache before its windows open; a large scan takes minutes, so the log
-    // says what it is doing, and `kiosk check` (which fills the same cache) shows it too.
+    // A kiosk fills its cache at start, its windows saying it prepares; a large scan takes
+    // minutes, so the log says what it is doing, and `kiosk check` (which fills the same cache)
+    // shows it too.
     let content = Path::new(env!("CARGO_MANIFEST_DIR")).join("content");
     let dir = tempfile::tempdir().expect("temp dir");
     let exhibit = dir.path().join("bust");

@@ -42,9 +42,7 @@ pub fn check(dir: &Path, cache: &Path, full: bool) -> Checked {
                 .and_then(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()));
             // What the reader warned of when it imported the scan (now or at an earlier start):
             // the kiosk shows the model anyway.
-            for w in &warnings {
-                c.problems.push((false, format!("model {}: {w}", name.as_deref().unwrap_or_default())));
-            }
+            c.problems.extend(warnings.iter().map(|w| (false, format!("model {w}"))));
             // In the model's coordinates, those of graph.xml's views.
             let b = store.bbox();
             let (lo, hi) = (store.origin() + b.min.as_dvec3(), store.origin() + b.max.as_dvec3());

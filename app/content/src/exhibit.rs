@@ -18,6 +18,11 @@ fn lower_name(p: &Path) -> String {
     p.file_name().and_then(|n| n.to_str()).unwrap_or("").to_ascii_lowercase()
 }
 
+/// A file's name as it is (its whole path without one).
+fn file_name(p: &Path) -> String {
+    p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
+}
+
 /// A file's modification time in nanoseconds since the epoch, where the system gives one.
 fn modified_nanos(meta: &std::fs::Metadata) -> Option<u128> {
     Some(meta.modified().ok()?.duration_since(std::time::UNIX_EPOCH).ok()?.as_nanos())
@@ -71,20 +76,16 @@ pub fn open_model_in(dir: &Path, cache: &Path) -> anyhow::Result<MappedStore> {
 
 /// Logs the reader's `warnings` of the exhibit `dir`'s scan ([`open_model_warned`]).
 pub fn log_warnings(dir: &Path, warnings: &[String]) {
-    if warnings.is_empty() {
-        return;
-    }
-    let name = model_file(dir).ok().and_then(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()));
     for warning in warnings {
-        tracing::warn!("exhibit {}: {}: {warning}", dir.display(), name.as_deref().unwrap_or("model"));
+        tracing::warn!("exhibit {}: {warning}", dir.display());
     }
 }
 
 /// [`open_model_in`] without logging the reader's warnings: the store, and what the reader warned
-/// of when it imported the scan (a line each, kept beside the cached store: every start and
-/// `kiosk check` name them, not only the first; none for a store, or for a scan an older kiosk
-/// cached). Each line the import logs
-/// is also given to `progress` (the kiosk shows the last one while it prepares).
+/// of when it imported the scan, a line each starting with the scan's file name (kept beside the
+/// cached store: every start and `kiosk check` name them, not only the first; none for a store,
+/// or for a scan an older kiosk cached). Each line the import logs is also given to `progress`
+/// (the kiosk shows the last one while it prepares).
 pub fn open_model_warned(
     dir: &Path,
     cache: &Path,
@@ -146,7 +147,9 @@ pub fn open_model_warned(
         tracing::warn!("cannot note the scan of {} in the cache: {e}", store.display());
     }
     sweep_cache(cache, &store, &source);
-    Ok(opened)
+    let (opened, warnings) = opened;
+    let name = file_name(&source);
+    Ok((opened, warnings.into_iter().map(|w| format!("{name}: {w}")).collect()))
 }
 
 /// Imports the scan `file` of the exhibit `dir` into the store of `cache` that `lock` holds,
@@ -159,8 +162,7 @@ fn import_logged(
     options: &ImportOptions,
     also: &mut dyn FnMut(&str),
 ) -> anyhow::Result<crate::import::ImportReport> {
-    let name = file.file_name().map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into());
-    let label = format!("exhibit {}: importing {name}", dir.display());
+    let label = format!("exhibit {}: importing {}", dir.display(), file_name(file));
     tracing::info!(
         "exhibit {}: importing {} into the cache {} (not in the cache or unreadable there, or the scan, a \
          file it names, its settings or the kiosk changed; a large scan takes minutes)",

@@ -351,17 +351,23 @@ fn cannot_write_in(dir: &Path, file: &Path, e: std::io::Error) -> anyhow::Error 
     )
 }
 
-/// Work directories of the imports running in this process (see [`remove_work_dirs`]).
-/// `true` once [`remove_work_dirs`] ran: no import starts after it.
-static ACTIVE: Mutex<(bool, Vec<PathBuf>)> = Mutex::new((false, Vec::new()));
+/// The imports running in this process (see [`remove_work_dirs`]).
+struct Active {
+    /// Whether [`remove_work_dirs`] ran: no import starts after it.
+    closing: bool,
+    /// Their work directories.
+    dirs: Vec<PathBuf>,
+}
+
+static ACTIVE: Mutex<Active> = Mutex::new(Active { closing: false, dirs: Vec::new() });
 
 /// Removes the work directories of the imports running in this process, and keeps any other
 /// from starting: for a program that ends before its imports do (on a signal, or closed while
 /// importing on another thread), whose imports' own cleanup does not run then.
 pub fn remove_work_dirs() {
     let mut active = ACTIVE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    active.0 = true;
-    for dir in &active.1 {
+    active.closing = true;
+    for dir in &active.dirs {
         let _ = std::fs::remove_dir_all(dir);
     }
 }
@@ -377,9 +383,9 @@ impl WorkDir {
         let path = dir.join(format!(".{name}.import-{}", std::process::id()));
         // Made and noted under the lock, so that a removal never misses it.
         let mut active = ACTIVE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        anyhow::ensure!(!active.0, "not imported: the program is closing");
+        anyhow::ensure!(!active.closing, "not imported: the program is closing");
         std::fs::create_dir_all(&path).map_err(|e| cannot_write_in(&dir, &path, e))?;
-        active.1.push(path.clone());
+        active.dirs.push(path.clone());
         Ok(Self { path })
     }
 }
@@ -387,7 +393,7 @@ impl WorkDir {
 impl Drop for WorkDir {
     fn drop(&mut self) {
         let _ = std::fs::remove_dir_all(&self.path);
-        ACTIVE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).1.retain(|p| p != &self.path);
+        ACTIVE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).dirs.retain(|p| p != &self.path);
     }
 }
 
