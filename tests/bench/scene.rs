@@ -3,6 +3,8 @@
 //! `-- --survey-only [--points N]`: the survey formats' readers alone, beside their decoders' bare
 //! loops, on one generated cloud written as LAS, LAZ, E57 and PLY (left in `target/bench/` for
 //! timing whole imports of each with `kiosk import`).
+//! `-- --estimation-only [--points N]`: the estimation of normals and spacings alone on the
+//! survey cloud's first N points (2 M), beside the same estimator on `kiddo`'s neighbour search.
 //! `-- --textured-only`: the textured reader alone by samples per texel (the textured box), and
 //! the Belweder exhibit's GLB read alone and imported whole.
 //! `-- --texture-8k`: an 8192² texture on a 200 k-triangle mesh (OBJ + MTL + PNG) read alone and
@@ -82,6 +84,14 @@ fn main() -> anyhow::Result<()> {
         let out_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench");
         std::fs::create_dir_all(&out_dir)?;
         return survey::readers(&out_dir, n);
+    }
+    if args.iter().any(|a| a == "--estimation-only") {
+        let n = args
+            .iter()
+            .position(|a| a == "--points")
+            .and_then(|i| args.get(i + 1))
+            .map_or(Ok(2_000_000), |s| s.parse())?;
+        return survey::estimation(n);
     }
     if args.iter().any(|a| a == "--tradeoff-only") {
         let out_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench");

@@ -290,3 +290,104 @@ pub fn readers(dir: &Path, n: u64) -> anyhow::Result<()> {
     );
     Ok(())
 }
+
+/// The estimation of normals and spacings alone (`--estimation-only`), on the first `n` points of
+/// the survey cloud (a region holds at most 2 M), beside the same estimator with `kiddo`'s exact
+/// k-nearest search: the bound a well-kept kd-tree sets on the neighbour search, on as many
+/// threads. Each is timed in turn, 5 pairs after a run of each; the normals of the two are
+/// compared (they differ only where two neighbours tie at the k-th distance).
+pub fn estimation(n: u64) -> anyhow::Result<()> {
+    use kiddo::immutable::float::kdtree::ImmutableKdTree;
+    use kiosk_import::estimate;
+    let pts = cloud(n);
+    let origin = DVec3::from(pts[0].pos());
+    let mut pos: Vec<glam::Vec3> = pts.iter().map(|p| (DVec3::from(p.pos()) - origin).as_vec3()).collect();
+    let boxes = estimate::sorted_tree(&mut pos);
+    let k = kiosk_import::BuildParams::default().knn;
+    let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
+    println!(
+        "\n## Normal and spacing estimation alone ({n} points of the survey cloud, k = {k}, {threads} threads; in turn, 5 pairs, medians)"
+    );
+    let arrays: Vec<[f32; 3]> = pos.iter().map(|p| p.to_array()).collect();
+    let start = Instant::now();
+    let tree: ImmutableKdTree<f32, u32, 3, 32> = ImmutableKdTree::new_from_slice(&arrays);
+    let tree_s = start.elapsed().as_secs_f64();
+    let kk = std::num::NonZero::new(k + 1).expect("k + 1 > 0");
+    // The k nearest of every point (itself included), on `threads` threads, each given to `f`.
+    let (tree, arrays, n_pos) = (&tree, &arrays, pos.len());
+    let kiddo_each = |f: &(dyn Fn(usize, &[usize]) + Sync)| {
+        let per = n_pos.div_ceil(threads);
+        std::thread::scope(|s| {
+            for t in 0..threads {
+                s.spawn(move || {
+                    let mut idx = Vec::with_capacity(k + 1);
+                    for (i, q) in arrays.iter().enumerate().skip(t * per).take(per) {
+                        idx.clear();
+                        idx.extend(
+                            tree.nearest_n::<kiddo::SquaredEuclidean>(q, kk)
+                                .iter()
+                                .map(|nn| nn.item as usize),
+                        );
+                        f(i, &idx);
+                    }
+                });
+            }
+        });
+    };
+    let ours = || estimate::estimate(&pos, &boxes, k, 1, &|_| true, &|_| true).expect("points");
+    let mut ours_run = || Ok(std::hint::black_box(ours()).len() as u64);
+    let mut search_run = || {
+        let sum = std::sync::atomic::AtomicU64::new(0);
+        kiddo_each(&|_, idx| {
+            sum.fetch_add(idx.len() as u64, std::sync::atomic::Ordering::Relaxed);
+        });
+        Ok(sum.into_inner() / (k as u64 + 1))
+    };
+    // The estimator's normal (`estimate`'s) from the neighbours `idx` (the point itself included).
+    let normal_of = |idx: &[usize]| {
+        let mean = idx.iter().fold(glam::Vec3::ZERO, |a, &j| a + pos[j]) / idx.len() as f32;
+        let cov = idx.iter().fold(glam::Mat3::ZERO, |c, &j| {
+            let d = pos[j] - mean;
+            c + glam::Mat3::from_cols(d * d.x, d * d.y, d * d.z)
+        });
+        estimate::smallest_eigenvector(cov)
+    };
+    let pca = |i: usize, idx: &[usize]| {
+        std::hint::black_box((i, normal_of(idx)));
+    };
+    let mut whole_run = || {
+        kiddo_each(&pca);
+        Ok(n)
+    };
+    let [(ours_s, _), (search_s, _), (ratio_search, _)] = side_by_side(&mut ours_run, &mut search_run)?;
+    let [_, (whole_s, _), (ratio_whole, _)] = side_by_side(&mut ours_run, &mut whole_run)?;
+    println!("| estimation | s | M points/s | ours / it, pair by pair |");
+    println!("|---|---|---|---|");
+    println!("| ours: search, normal and spacing | {ours_s:.3} | {:.2} | 1 |", n as f64 / ours_s / 1e6);
+    println!(
+        "| kiddo's {}-nearest search alone (its tree built in {tree_s:.3} s, not counted) | {search_s:.3} | {:.2} | {ratio_search:.2} |",
+        k + 1,
+        n as f64 / search_s / 1e6
+    );
+    println!(
+        "| kiddo's search and the same normal | {whole_s:.3} | {:.2} | {ratio_whole:.2} |",
+        n as f64 / whole_s / 1e6
+    );
+    // The two searches find the same neighbours but for ties: compare the normals (up to sign).
+    let mine = ours();
+    let worst = std::sync::Mutex::new(Vec::with_capacity(pos.len()));
+    kiddo_each(&|i, idx| {
+        let dot = normal_of(idx).dot(mine[i].normal).abs().min(1.0);
+        worst.lock().expect("angles").push(dot.acos().to_degrees());
+    });
+    let mut angles = worst.into_inner().expect("angles");
+    angles.sort_by(f32::total_cmp);
+    let at = |q: f64| angles[((angles.len() - 1) as f64 * q) as usize];
+    println!(
+        "\nNormals, ours against kiddo's neighbours: angle median {:.2e}°, 99.9th percentile {:.2e}°, largest {:.2e}°",
+        at(0.5),
+        at(0.999),
+        at(1.0)
+    );
+    Ok(())
+}
