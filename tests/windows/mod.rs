@@ -380,70 +380,114 @@ fn the_windows_say_the_kiosk_is_preparing_while_a_new_scan_is_imported() {
 }
 
 #[test]
-fn a_kiosk_without_a_loadable_exhibit_says_why_and_exits() {
-    // No exhibit at all: the windows open, say they prepare, then the kiosk ends with the reason
-    // (a service's log must name it, whatever the windows took).
+fn a_kiosk_without_a_loadable_exhibit_says_it_is_closed_and_opens_when_content_comes() {
+    // No exhibit yet (a content disk not mounted at boot, a copy under way): the kiosk stays up,
+    // says the exhibition is closed, names the reason once in its log, and tries again; the
+    // exhibit comes, and the gallery opens without a restart.
     let content = tempfile::tempdir().expect("temp dir");
     let dir = tempfile::tempdir().expect("temp dir");
-    let cfg = dir.path().join("kiosk.toml");
-    std::fs::write(&cfg, format!("content = {:?}\n", content.path().display().to_string())).expect("config");
-    let runtime = std::env::temp_dir().join("xdg-runtime-isokiosk-tests");
-    std::fs::create_dir_all(&runtime).expect("runtime dir");
-    let out = Command::new("xvfb-run")
-        .args(["-a", "-s", "-screen 0 2200x800x24 -nolisten tcp"])
-        .arg(env!("CARGO_BIN_EXE_kiosk"))
-        .arg("--config")
-        .arg(&cfg)
-        .args(["--windowed", "--silent"])
-        .env("ISOKIOSK_CACHE", dir.path().join("cache"))
-        .env("ISOKIOSK_STATE", dir.path().join("state"))
-        .env("XDG_RUNTIME_DIR", &runtime)
-        .env("RUST_LOG", "info,wgpu_core=warn,wgpu_hal=warn,naga=warn")
-        .output()
-        .expect("xvfb-run must be installed (.ci/setup installs xvfb and xauth)");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success(), "{stderr}");
-    let said = format!("no exhibit could be loaded from {}", content.path().display());
-    assert!(stderr.contains(&said), "{said}:\n{stderr}");
-    assert!(!stderr.contains("without a word"), "{stderr}");
+    let staged = dir.path().join("staged");
+    crate::common::copy_dir(&self::content().join("demosthenes"), &staged);
+    let visit = Script::new().wait(120.0).cancel(99);
+    let arrive = format!(
+        "sleep 2.5; mv {:?} {:?}",
+        staged.display().to_string(),
+        content.path().join("demosthenes").display().to_string()
+    );
+    let steps = [("the exhibition is closed", arrive.as_str()), ("the gallery opens", "")];
+    let kiosk = Kiosk { config: "retry_after_secs = 1.0\n", screenshots: true };
+    let (status, log) = stopped_by_a_signal(content.path(), dir.path(), &visit, &kiosk, &steps, 0.5);
+    assert_eq!(status, 0, "{log}");
+    let said =
+        format!("no exhibit could be loaded from {}: the exhibition is closed", content.path().display());
+    assert_eq!(log.matches(&said).count(), 1, "said once, however often tried:\n{log}");
+    assert!(log.matches("trying the exhibits again").count() >= 2, "tried again each second:\n{log}");
+    assert!(log.contains("the gallery opens: 1 exhibit(s)"), "{log}");
+    // The closed screen: the words on both windows, no pulse, the reason at the controller's foot.
+    let shot = |window: &str| {
+        let p = dir.path().join(format!("{window}-closed.png"));
+        image::open(&p).unwrap_or_else(|e| panic!("{}: {e}\n{log}", p.display())).to_rgba8()
+    };
+    let (projection, controller) = (shot("projection"), shot("controller"));
+    let (pw, ph) = projection.dimensions();
+    let (cw, ch) = controller.dimensions();
+    let words = bright(&projection, (pw / 10, ph * 34 / 100, pw * 9 / 10, ph / 2), 150.0);
+    assert!(words > 0.02, "the words on the projection: {words:.3} of the band bright");
+    assert_eq!(amber(&projection, (0, 0, pw, ph)), 0.0, "no pulse: nothing is being prepared");
+    let foot = bright(&controller, (0, ch * 84 / 100, cw, ch * 94 / 100), 100.0);
+    assert!(foot > 0.005, "the reason on the controller: {foot:.3}");
 }
 
-/// Starts the kiosk under Xvfb on the exhibits of `content` (its cache and state in `dir`,
-/// playing `script`), sends it SIGTERM `delay` seconds after its log says `when`, and returns
-/// its exit status and its log.
-fn stopped_by_a_signal(content: &Path, dir: &Path, script: &Script, when: &str, delay: f64) -> (i32, String) {
+/// How [`stopped_by_a_signal`] runs the kiosk: lines added to its configuration, and whether it
+/// saves its screenshots (in the test's directory; none is due in a session that lasts).
+struct Kiosk<'a> {
+    config: &'a str,
+    screenshots: bool,
+}
+
+impl Kiosk<'_> {
+    const PLAIN: Self = Self { config: "", screenshots: false };
+}
+
+/// Starts the kiosk under Xvfb on the exhibits of `content` (its cache, state and screenshots in
+/// `dir`, playing `script`), and for each step in turn waits for its log to say the step's line
+/// (at most a minute) and runs the step's shell command; sends it SIGTERM `delay` seconds after
+/// the last, and returns its exit status and its log.
+fn stopped_by_a_signal(
+    content: &Path,
+    dir: &Path,
+    script: &Script,
+    kiosk: &Kiosk<'_>,
+    steps: &[(&str, &str)],
+    delay: f64,
+) -> (i32, String) {
     let session = dir.join("session.jsonl");
     std::fs::write(&session, script.session().to_jsonl()).expect("write session");
     let cfg = dir.join("kiosk.toml");
-    std::fs::write(&cfg, format!("content = {:?}\n", content.display().to_string())).expect("config");
+    std::fs::write(&cfg, format!("content = {:?}\n{}", content.display().to_string(), kiosk.config))
+        .expect("config");
     let log = dir.join("kiosk.log");
     let runtime = std::env::temp_dir().join("xdg-runtime-isokiosk-tests");
     std::fs::create_dir_all(&runtime).expect("runtime dir");
-    // The shell waits for the line (at most a minute), then stops the kiosk as a service
-    // manager would.
+    let shots = if kiosk.screenshots {
+        format!("--screenshot-at 99 --screenshot-dir {}", dir.display())
+    } else {
+        String::new()
+    };
+    // The shell follows the steps, then stops the kiosk as a service manager would.
     let script = r#"
-        "$KIOSK" --config "$CFG" --windowed --silent --session "$SESSION" 2> "$LOG" &
+        "$KIOSK" --config "$CFG" --windowed --silent --session "$SESSION" $SHOTS 2> "$LOG" &
         pid=$!
-        for i in $(seq 600); do grep -q "$WHEN" "$LOG" && break; sleep 0.1; done
+        i=0
+        while [ $i -lt "$STEPS" ]; do
+            eval "when=\$WHEN_$i; then=\$THEN_$i"
+            for t in $(seq 600); do grep -q "$when" "$LOG" && break; sleep 0.1; done
+            sh -c "$then"
+            i=$((i + 1))
+        done
         sleep "$DELAY"
         kill -TERM $pid
         wait $pid
         echo "status $?"
     "#;
-    let out = Command::new("xvfb-run")
+    let mut command = Command::new("xvfb-run");
+    command
         .args(["-a", "-s", "-screen 0 2200x800x24 -nolisten tcp", "sh", "-c", script])
         .env("KIOSK", env!("CARGO_BIN_EXE_kiosk"))
         .env("CFG", &cfg)
         .env("SESSION", &session)
         .env("LOG", &log)
-        .env("WHEN", when)
+        .env("SHOTS", shots)
+        .env("STEPS", steps.len().to_string())
         .env("DELAY", delay.to_string())
         .env("ISOKIOSK_CACHE", dir.join("cache"))
         .env("ISOKIOSK_STATE", dir.join("state"))
         .env("XDG_RUNTIME_DIR", &runtime)
-        .env("RUST_LOG", "info,wgpu_core=warn,wgpu_hal=warn,naga=warn")
-        .output()
-        .expect("xvfb-run must be installed (.ci/setup installs xvfb and xauth)");
+        .env("RUST_LOG", "info,wgpu_core=warn,wgpu_hal=warn,naga=warn");
+    for (i, (when, then)) in steps.iter().enumerate() {
+        command.env(format!("WHEN_{i}"), when).env(format!("THEN_{i}"), then);
+    }
+    let out = command.output().expect("xvfb-run must be installed (.ci/setup installs xvfb and xauth)");
     let log = std::fs::read_to_string(&log).unwrap_or_default();
     let stdout = String::from_utf8_lossy(&out.stdout);
     let status = stdout
@@ -462,7 +506,8 @@ fn a_signal_closes_the_kiosk_as_ctrl_q_does_while_preparing_and_while_running() 
     crate::common::copy_dir(&self::content().join("demosthenes"), &content.path().join("demosthenes"));
     let dir = tempfile::tempdir().expect("temp dir");
     let visit = Script::new().wait(0.3).tap(1, 0.5, 0.86).wait(120.0).cancel(99);
-    let (status, log) = stopped_by_a_signal(content.path(), dir.path(), &visit, "the gallery opens", 2.0);
+    let steps = [("the gallery opens", "")];
+    let (status, log) = stopped_by_a_signal(content.path(), dir.path(), &visit, &Kiosk::PLAIN, &steps, 2.0);
     assert_eq!(status, 0, "{log}");
     assert!(log.contains("a signal asks the kiosk to close"), "{log}");
     let visits = std::fs::read_to_string(dir.path().join("state/visits.jsonl")).expect("visit log");
@@ -477,8 +522,8 @@ fn a_signal_closes_the_kiosk_as_ctrl_q_does_while_preparing_and_while_running() 
     std::fs::create_dir_all(&exhibit).expect("mkdir");
     crate::common::write_relief_ply(&exhibit.join("relief.ply"), 1600);
     let dir = tempfile::tempdir().expect("temp dir");
-    let (status, log) =
-        stopped_by_a_signal(content.path(), dir.path(), &visit, "windows open: preparing the exhibits", 0.0);
+    let steps = [("windows open: preparing the exhibits", "")];
+    let (status, log) = stopped_by_a_signal(content.path(), dir.path(), &visit, &Kiosk::PLAIN, &steps, 0.0);
     assert_eq!(status, 0, "{log}");
     assert!(log.contains("importing relief.ply: reading") && !log.contains("relief.ply: done"), "{log}");
     assert!(log.contains("closed while preparing the exhibits"), "{log}");

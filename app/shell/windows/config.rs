@@ -76,6 +76,9 @@ pub struct Config {
     pub attract_after_secs: f64,
     /// Seconds without a touch before the reset to the gallery.
     pub reset_after_secs: f64,
+    /// Seconds before the exhibits are tried again when none could be loaded (the content not
+    /// there yet, or every exhibit broken): meanwhile the windows say the exhibition is closed.
+    pub retry_after_secs: f64,
     /// Languages offered; the first is the default.
     pub languages: Vec<String>,
     /// Narration volume in [0, 1].
@@ -106,6 +109,7 @@ impl Default for Config {
             real_scale: None,
             attract_after_secs: 60.0,
             reset_after_secs: 180.0,
+            retry_after_secs: 60.0,
             languages: vec!["en".into(), "it".into()],
             volume: 1.0,
             seed: 0,
@@ -181,6 +185,12 @@ impl Config {
             return Err(format!(
                 "attract_after_secs = {}, reset_after_secs = {}: need 0 < attract ≤ reset",
                 self.attract_after_secs, self.reset_after_secs
+            ));
+        }
+        if !(self.retry_after_secs > 0.0 && self.retry_after_secs.is_finite()) {
+            return Err(format!(
+                "retry_after_secs = {}: must be a positive number of seconds",
+                self.retry_after_secs
             ));
         }
         if self.languages.is_empty() {
@@ -300,6 +310,10 @@ mod tests {
         }
         let e = Config::parse("splats = \"fuzzy\"").expect_err("mode");
         assert!(e.contains("splats") && e.contains("blended, discs, points"), "{e}");
+        for secs in ["0", "-5", "inf", "nan"] {
+            let e = Config::parse(&format!("retry_after_secs = {secs}")).expect_err("retry");
+            assert!(e.contains("retry_after_secs"), "{e}");
+        }
         let e = Config::parse("edl = -1").expect_err("edl");
         assert!(e.contains("edl = -1"), "{e}");
         // A field of view of 180 degrees (tan(fov/2) infinite) was accepted through real_scale;

@@ -29,6 +29,8 @@ pub struct Words {
     pub light_hint: &'static str,
     /// While the exhibits load, before the gallery opens.
     pub preparing: &'static str,
+    /// When none could be loaded (the kiosk tries again).
+    pub closed: &'static str,
 }
 
 /// The interface words of a language.
@@ -47,6 +49,7 @@ pub fn words(lang: &str) -> &'static Words {
             light: "Luce",
             light_hint: "Trascina per spostare la luce · di lato fa risaltare i rilievi",
             preparing: "La mostra si sta preparando. Un momento, per favore.",
+            closed: "La mostra è chiusa per il momento. Ci scusiamo.",
         },
         _ => &Words {
             back: "Gallery",
@@ -61,6 +64,7 @@ pub fn words(lang: &str) -> &'static Words {
             light: "Light",
             light_hint: "Drag to move the light · from the side it brings out the relief",
             preparing: "The exhibition is being prepared. One moment, please.",
+            closed: "The exhibition is closed for the moment. We are sorry.",
         },
     }
 }
@@ -86,10 +90,12 @@ fn wrapped(
     p.layout(text.to_string(), FontId::proportional(size), color, width)
 }
 
-/// What both windows show while the exhibits load ([`super::preparing`]).
+/// What both windows show while the exhibits load ([`super::preparing`]), or when none could be.
 pub struct PreparingView<'a> {
     /// The kiosk's languages: the words are said in each.
     pub languages: &'a [String],
+    /// Whether no exhibit could be loaded: the exhibition is closed, still (no pulse).
+    pub closed: bool,
     /// Seconds since loading started (the pulse moves with them).
     pub t: f64,
     /// Small print for the technician (the controller only): which exhibit, how long, the
@@ -98,7 +104,7 @@ pub struct PreparingView<'a> {
 }
 
 /// Draws the preparing screen: the words in every language, a pulse of three dots, and on the
-/// controller the small print.
+/// controller the small print; or, closed, the words that say so and the small print.
 pub fn preparing(ctx: &egui::Context, v: &PreparingView<'_>) {
     let screen = ctx.content_rect();
     let p = ctx.layer_painter(egui::LayerId::background());
@@ -108,7 +114,8 @@ pub fn preparing(ctx: &egui::Context, v: &PreparingView<'_>) {
     // Each language once: one without a table of its own would repeat the English.
     let mut said: Vec<&str> = Vec::new();
     for lang in v.languages {
-        let text = words(lang).preparing;
+        let w = words(lang);
+        let text = if v.closed { w.closed } else { w.preparing };
         if said.contains(&text) {
             continue;
         }
@@ -122,7 +129,7 @@ pub fn preparing(ctx: &egui::Context, v: &PreparingView<'_>) {
     }
     // Three dots, one bright at a time, a step a second: the kiosk is alive.
     let lit = v.t.floor().rem_euclid(3.0) as usize;
-    for k in 0..3 {
+    for k in (0..3).filter(|_| !v.closed) {
         let c = pos2(screen.center().x + (k as f32 - 1.0) * 28.0, y + 30.0);
         p.circle_filled(c, 7.0, if k == lit { ACCENT } else { Color32::from_gray(70) });
     }

@@ -10,7 +10,8 @@
 //! The same touch events that drive the windows are what `--record` writes and what `--session`
 //! plays back, so a recorded visit replays through the real windows, and through `kiosk replay`.
 //!
-//! The windows open first and say the kiosk is preparing while the exhibits load ([`preparing`]);
+//! The windows open first and say the kiosk is preparing while the exhibits load, or that the
+//! exhibition is closed while none can be ([`preparing`]);
 //! Ctrl+Q, closing a window or a signal (SIGTERM, SIGINT, SIGHUP) ends the kiosk the same way, the
 //! visit in progress logged.
 
@@ -121,6 +122,8 @@ pub fn run(opts: RunOptions) -> anyhow::Result<()> {
         state: None,
         ctrl: false,
         stopping: false,
+        closed: None,
+        closed_reason: None,
         error: None,
     };
     event_loop.run_app(&mut app)?;
@@ -130,7 +133,9 @@ pub fn run(opts: RunOptions) -> anyhow::Result<()> {
         // Closed while preparing: an import under way stops with the process, without its work
         // directory; the next start imports again.
         None => {
-            if app.error.is_none() {
+            if app.closed.is_some() {
+                tracing::info!("closed with no exhibit to show");
+            } else if app.error.is_none() {
                 tracing::info!("closed while preparing the exhibits");
             }
             kiosk_content::import::remove_work_dirs();
@@ -157,6 +162,10 @@ struct App {
     ctrl: bool,
     /// Whether a signal's close was logged.
     stopping: bool,
+    /// No exhibit could be loaded: the exhibition is closed until they are tried again.
+    closed: Option<preparing::Closed>,
+    /// Why it was last closed (logged once while it stays the same).
+    closed_reason: Option<String>,
     error: Option<anyhow::Error>,
 }
 
@@ -170,6 +179,8 @@ struct Display {
     drawn: Option<u64>,
     /// Whether the preparing screen must be drawn again now (a window was resized).
     redraw: bool,
+    /// Whether the screen saying the exhibition is closed was saved with the screenshots.
+    closed_saved: bool,
 }
 
 /// Everything that exists once the windows are open and the exhibits loaded.
@@ -264,11 +275,13 @@ impl App {
             std::fs::create_dir_all(&self.opts.screenshot_dir)
                 .with_context(|| format!("cannot create {}", self.opts.screenshot_dir.display()))?;
         }
-        Ok(Display { gfx, instance, adapter, drawn: None, redraw: false })
+        Ok(Display { gfx, instance, adapter, drawn: None, redraw: false, closed_saved: false })
     }
 
     /// Draws the preparing screen when it is due (its first frame at once, saved with the
-    /// screenshots if there are any), and starts the kiosk once the exhibits are loaded.
+    /// screenshots if there are any), and starts the kiosk once the exhibits are loaded. When
+    /// none could be, the screen says the exhibition is closed and the exhibits are tried again
+    /// after `retry_after_secs` ([`preparing::Closed`]).
     fn prepare(&mut self, el: &ActiveEventLoop) {
         // After an error, the loop is ending: nothing more to draw or start (winit may still
         // call back within this turn).
@@ -276,48 +289,101 @@ impl App {
             return;
         }
         let Some(d) = self.display.as_mut() else { return };
-        let first = d.drawn.is_none();
-        let done = self.loader.poll();
-        let second = (self.loader.elapsed() / preparing::FRAME.as_secs_f64()) as u64;
-        if first || (done.is_none() && (d.redraw || d.drawn != Some(second))) {
-            d.drawn = Some(second);
-            d.redraw = false;
-            let detail = self.loader.detail();
-            let view = draw::PreparingView {
-                languages: &self.opts.config.languages,
-                t: self.loader.elapsed(),
-                detail: Some(&detail),
-            };
-            d.gfx.draw_preparing(&view);
-            if first {
-                tracing::info!("windows open: preparing the exhibits");
-                if !self.opts.screenshot_at.is_empty()
-                    && let Err(e) = d.gfx.capture(&self.opts.screenshot_dir, "preparing")
-                {
+        if let Some(c) = self.closed.as_mut()
+            && c.due()
+        {
+            tracing::info!("trying the exhibits again");
+            match preparing::Loader::spawn(self.opts.config.clone()) {
+                Ok(loader) => self.loader = loader,
+                Err(e) => {
                     self.error = Some(e);
                     el.exit();
                     return;
                 }
             }
+            c.retrying();
         }
-        let started = match done {
-            None => {
-                el.set_control_flow(ControlFlow::WaitUntil(Instant::now() + preparing::POLL));
+        let mut done = None;
+        let mut newly_closed = false;
+        if self.closed.as_ref().is_none_or(|c| c.is_retrying()) {
+            match self.loader.poll() {
+                Some(Err(e)) => {
+                    let closed = preparing::Closed::new(format!("{e:#}"), self.opts.config.retry_after_secs);
+                    // Said (and drawn) once for as long as the reason stays the same: the kiosk
+                    // may wait for its content for days.
+                    if self.closed_reason.as_deref() != Some(closed.reason()) {
+                        tracing::error!(
+                            "{}: the exhibition is closed; the exhibits are tried again every {} s",
+                            closed.reason(),
+                            self.opts.config.retry_after_secs
+                        );
+                        self.closed_reason = Some(closed.reason().to_string());
+                        d.redraw = true;
+                    }
+                    newly_closed = self.closed.is_none();
+                    d.redraw |= newly_closed;
+                    self.closed = Some(closed);
+                }
+                Some(Ok(exhibits)) => done = Some(exhibits),
+                // Trying again takes long (an import, a slow disk): say so.
+                None if self.closed.is_some() && self.loader.elapsed() > preparing::SAY_PREPARING => {
+                    self.closed = None;
+                    d.redraw = true;
+                }
+                None => {}
+            }
+        }
+        let first = d.drawn.is_none();
+        let second = (self.loader.elapsed() / preparing::FRAME.as_secs_f64()) as u64;
+        // Closed, the screen stays still: drawn again only when it changes.
+        let tick = self.closed.is_none() && d.drawn != Some(second);
+        if first || (done.is_none() && (d.redraw || tick)) {
+            d.drawn = Some(second);
+            d.redraw = false;
+            let detail = match &self.closed {
+                Some(c) => c.detail(),
+                None => self.loader.detail(),
+            };
+            let view = draw::PreparingView {
+                languages: &self.opts.config.languages,
+                closed: self.closed.is_some(),
+                t: self.loader.elapsed(),
+                detail: Some(&detail),
+            };
+            d.gfx.draw_preparing(&view);
+            if first && self.closed.is_some() {
+                tracing::info!("windows open: the exhibition is closed");
+            } else if first {
+                tracing::info!("windows open: preparing the exhibits");
+            }
+            // The first frame, and the first that says the exhibition is closed (both, when no
+            // exhibit could be loaded before the first).
+            let closed_shot = newly_closed && !std::mem::replace(&mut d.closed_saved, true);
+            let tags = [first.then_some("preparing"), closed_shot.then_some("closed")];
+            if !self.opts.screenshot_at.is_empty()
+                && let Err(e) = tags
+                    .into_iter()
+                    .flatten()
+                    .try_for_each(|tag| d.gfx.capture(&self.opts.screenshot_dir, tag))
+            {
+                self.error = Some(e);
+                el.exit();
                 return;
             }
-            Some(Ok(exhibits)) => {
-                tracing::info!(
-                    "the gallery opens: {} exhibit(s), loaded in {:.1} s",
-                    exhibits.len(),
-                    self.loader.elapsed()
-                );
-                self.exhibits = Box::leak(exhibits.into_boxed_slice());
-                match self.display.take() {
-                    Some(d) => self.start(d),
-                    None => return,
-                }
-            }
-            Some(Err(e)) => Err(e),
+        }
+        let Some(exhibits) = done else {
+            el.set_control_flow(ControlFlow::WaitUntil(Instant::now() + preparing::POLL));
+            return;
+        };
+        tracing::info!(
+            "the gallery opens: {} exhibit(s), loaded in {:.1} s",
+            exhibits.len(),
+            self.loader.elapsed()
+        );
+        self.exhibits = Box::leak(exhibits.into_boxed_slice());
+        let started = match self.display.take() {
+            Some(d) => self.start(d),
+            None => return,
         };
         match started {
             Ok(s) => {

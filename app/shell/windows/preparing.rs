@@ -12,6 +12,14 @@
 //! within a quarter of a second of the exhibits being loaded. The first frame is drawn as soon as the windows are open, even
 //! when the exhibits are already there, and saved beside the session's screenshots when there
 //! are any.
+//!
+//! When no exhibit can be loaded (the content directory empty, missing or not mounted yet, every
+//! exhibit broken), the kiosk does not end: a service would restart it into the same failure, and
+//! the wall would show a desktop. The windows say the exhibition is closed, in each language, the
+//! controller's small print gives the reason and how often the kiosk tries again
+//! (`retry_after_secs`, a minute by default), and content that comes opens the gallery without a
+//! restart. The reason is logged as an error once for as long as it stays the same. Closed, the
+//! screen is drawn only when it changes: a kiosk may wait for its content for days.
 
 use super::config::Config;
 use super::exhibits::{Exhibit, Status, load_exhibits};
@@ -23,6 +31,50 @@ pub(super) const FRAME: Duration = Duration::from_secs(1);
 
 /// Time between two looks at what the loading thread said.
 pub(super) const POLL: Duration = Duration::from_millis(250);
+
+/// While trying the exhibits again after they could not be loaded, the closed screen stays
+/// unless the loading takes this long (an import, a slow disk): then the screen says the
+/// exhibition is being prepared. An empty content directory answers at once; the wall does not
+/// flicker every minute.
+pub(super) const SAY_PREPARING: f64 = 1.0;
+
+/// No exhibit could be loaded: why, and when they are tried again.
+pub(super) struct Closed {
+    reason: String,
+    retry_secs: f64,
+    /// When they are tried again; `None` while they are.
+    retry_at: Option<Instant>,
+}
+
+impl Closed {
+    /// Closed for `reason`, the exhibits tried again in `retry_secs` seconds.
+    pub fn new(reason: String, retry_secs: f64) -> Self {
+        Self { reason, retry_secs, retry_at: Some(Instant::now() + Duration::from_secs_f64(retry_secs)) }
+    }
+
+    pub fn reason(&self) -> &str {
+        &self.reason
+    }
+
+    /// Whether the exhibits are to be tried again now.
+    pub fn due(&self) -> bool {
+        self.retry_at.is_some_and(|at| Instant::now() >= at)
+    }
+
+    /// The exhibits are being tried again.
+    pub fn retrying(&mut self) {
+        self.retry_at = None;
+    }
+
+    pub fn is_retrying(&self) -> bool {
+        self.retry_at.is_none()
+    }
+
+    /// The controller's small print: the reason and how often the kiosk tries again.
+    pub fn detail(&self) -> String {
+        format!("{}\nthe exhibits are tried again every {} s", self.reason, self.retry_secs)
+    }
+}
 
 /// What the loading thread says.
 enum Message {
