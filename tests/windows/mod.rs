@@ -322,21 +322,15 @@ fn broken_content_is_logged_once_and_the_rest_keeps_working() {
     assert!(bright(&shot, (440, 100, 840, 620), 150.0) > 0.2, "the model still shows");
 }
 
-#[test]
-fn the_windows_say_the_kiosk_is_preparing_while_a_new_scan_is_imported() {
-    // A new scan of 2.5 M points without normals: the kiosk imports it into the cache before the
-    // gallery opens (a few seconds here, minutes for a museum's scans), its windows open first
-    // and say so.
-    let content = tempfile::tempdir().expect("temp dir");
-    let exhibit = content.path().join("sphere");
-    std::fs::create_dir_all(&exhibit).expect("mkdir");
-    let n = 2_500_000u32;
+/// An exhibit `dir` whose scan is a PLY of `n` points without normals: a Fibonacci sphere of
+/// radius 0.3, even and the same at every run (2.5 M points take a few seconds to import here).
+fn write_sphere(dir: &Path, n: u32) {
+    std::fs::create_dir_all(dir).expect("mkdir");
     let mut ply = format!(
         "ply\nformat binary_little_endian 1.0\nelement vertex {n}\nproperty float x\nproperty float y\n"
     )
     .into_bytes();
     ply.extend_from_slice(b"property float z\nend_header\n");
-    // A Fibonacci sphere of radius 0.3: even, and the same at every run.
     let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
     for i in 0..n {
         let y = 1.0 - 2.0 * (f64::from(i) + 0.5) / f64::from(n);
@@ -346,7 +340,16 @@ fn the_windows_say_the_kiosk_is_preparing_while_a_new_scan_is_imported() {
             ply.extend_from_slice(&((0.3 * c) as f32).to_le_bytes());
         }
     }
-    std::fs::write(exhibit.join("sphere.ply"), ply).expect("write scan");
+    std::fs::write(dir.join("sphere.ply"), ply).expect("write scan");
+}
+
+#[test]
+fn the_windows_say_the_kiosk_is_preparing_while_a_new_scan_is_imported() {
+    // A new scan of 2.5 M points without normals: the kiosk imports it into the cache before the
+    // gallery opens (a few seconds here, minutes for a museum's scans), its windows open first
+    // and say so.
+    let content = tempfile::tempdir().expect("temp dir");
+    write_sphere(&content.path().join("sphere"), 2_500_000);
     let script = Script::new().wait(1.5).cancel(99);
     let run = run_in(content.path(), &script, &[1.0], "", 1.0);
     assert!(!run.stderr.contains("ERROR"), "the kiosk logged errors:\n{}", run.stderr);
@@ -376,6 +379,42 @@ fn the_windows_say_the_kiosk_is_preparing_while_a_new_scan_is_imported() {
     assert!(
         bright(&shot, (pw * 4 / 10, ph * 4 / 10, pw * 6 / 10, ph * 6 / 10), 60.0) > 0.5,
         "the model shows"
+    );
+}
+
+#[test]
+fn the_gallery_opens_with_the_exhibits_at_hand_and_a_new_scan_joins_it_once_imported() {
+    // A bust whose model is a store, and a new scan of 2.5 M points: the gallery opens with the
+    // bust at once, the scan is imported behind it and joins the gallery when nobody is there.
+    let content = tempfile::tempdir().expect("temp dir");
+    let bust = content.path().join("bust");
+    std::fs::create_dir_all(&bust).expect("mkdir");
+    let out = Command::new(env!("CARGO_BIN_EXE_kiosk"))
+        .arg("import")
+        .arg(self::content().join("demosthenes/demosthenes-low-res.obj"))
+        .arg("-o")
+        .arg(bust.join("bust.kstore"))
+        .arg("--quiet")
+        .output()
+        .expect("kiosk import");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    write_sphere(&content.path().join("sphere"), 2_500_000);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let visit = Script::new().wait(120.0).cancel(99);
+    let kiosk = Kiosk { config: "attract_after_secs = 0.5\nreset_after_secs = 1.0\n", screenshots: false };
+    let steps = [("the gallery now holds", "")];
+    let (status, log) = stopped_by_a_signal(content.path(), dir.path(), &visit, &kiosk, &steps, 0.5);
+    assert_eq!(status, 0, "{log}");
+    assert!(!log.contains("ERROR"), "{log}");
+    let at = |needle: &str| log.find(needle).unwrap_or_else(|| panic!("no \"{needle}\" in the log:\n{log}"));
+    let opens = at("the gallery opens: 1 exhibit(s)");
+    assert!(log[opens..].lines().next().is_some_and(|l| l.contains("1 more join it once imported")), "{log}");
+    let imported = at("importing sphere.ply: done");
+    let joins = at("the gallery now holds 2 exhibits");
+    assert!(opens < imported && imported < joins, "opened, imported, joined in turn:\n{log}");
+    assert!(
+        log.contains(&format!("imported behind the gallery: {}", content.path().join("sphere").display())),
+        "{log}"
     );
 }
 

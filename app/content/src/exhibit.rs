@@ -91,9 +91,26 @@ pub fn open_model_warned(
     cache: &Path,
     progress: &mut dyn FnMut(&str),
 ) -> anyhow::Result<(MappedStore, Vec<String>)> {
+    open_model_or_not(dir, cache, Some(progress))?
+        .ok_or_else(|| anyhow::anyhow!("exhibit {}: its scan was not imported", dir.display()))
+}
+
+/// [`open_model_warned`] when the model opens at once (a store, or a scan whose cached store is
+/// up to date); `None` when its scan has to be imported first. The kiosk opens its gallery with
+/// these while it imports the others.
+pub fn open_model_cached(dir: &Path, cache: &Path) -> anyhow::Result<Option<(MappedStore, Vec<String>)>> {
+    open_model_or_not(dir, cache, None)
+}
+
+/// [`open_model_warned`], importing only when given where the import's lines go.
+fn open_model_or_not(
+    dir: &Path,
+    cache: &Path,
+    import: Option<&mut dyn FnMut(&str)>,
+) -> anyhow::Result<Option<(MappedStore, Vec<String>)>> {
     let file = model_file(dir)?;
     if file.extension().is_some_and(|e| e.eq_ignore_ascii_case("kstore")) {
-        return Ok((crate::open_store(&file)?, Vec::new()));
+        return Ok(Some((crate::open_store(&file)?, Vec::new())));
     }
     // Whatever the working directory, so that the files it names are noted by the same paths by
     // every program sharing the cache (the kiosk, `kiosk check`, the authoring tool).
@@ -114,6 +131,7 @@ pub fn open_model_warned(
     let opened = match cached() {
         Some(s) => s,
         None => {
+            let Some(progress) = import else { return Ok(None) };
             // Another kiosk or replay may be importing the same scan: wait for it, then use its
             // store.
             let lock = match OutputLock::try_acquire(&store)? {
@@ -149,7 +167,7 @@ pub fn open_model_warned(
     sweep_cache(cache, &store, &source);
     let (opened, warnings) = opened;
     let name = file_name(&source);
-    Ok((opened, warnings.into_iter().map(|w| format!("{name}: {w}")).collect()))
+    Ok(Some((opened, warnings.into_iter().map(|w| format!("{name}: {w}")).collect())))
 }
 
 /// Imports the scan `file` of the exhibit `dir` into the store of `cache` that `lock` holds,

@@ -14,6 +14,8 @@ use std::path::PathBuf;
 pub struct Exhibit {
     /// Its directory.
     pub dir: PathBuf,
+    /// Its place in the gallery (the configuration's order).
+    pub place: usize,
     /// Its model.
     pub store: MappedStore,
     /// Its story.
@@ -48,22 +50,41 @@ impl Exhibit {
     }
 }
 
-/// Loads the exhibits of the configuration; a broken one is logged and left out, the rest
-/// shows. Errors only when none loads. `status` is told which exhibit loads and each line its
-/// import into the cache logs (a new scan takes minutes: the windows show it).
-pub fn load_exhibits(config: &Config, status: &mut dyn FnMut(Status)) -> anyhow::Result<Vec<Exhibit>> {
-    let mut out = Vec::new();
-    let dirs = config.exhibit_dirs()?;
-    let (n, cache) = (dirs.len(), kiosk_content::exhibit::cache_dir());
-    for (i, dir) in dirs.into_iter().enumerate() {
-        status(Status::Exhibit(i, n));
-        let opened = kiosk_content::exhibit::open_model_warned(&dir, &cache, &mut |line| {
-            status(Status::Line(line.to_string()))
-        });
+/// The exhibits of the configuration, each with its place in the gallery.
+pub fn gallery_places(config: &Config) -> anyhow::Result<Vec<(usize, PathBuf)>> {
+    Ok(config.exhibit_dirs()?.into_iter().enumerate().collect())
+}
+
+/// Loads the exhibits at `places` (of `n` in the gallery), in order; a broken one is logged and
+/// left out. Without `import`, an exhibit whose scan must be imported into the cache first is
+/// not loaded but returned, with its place, among those waiting (the kiosk opens its gallery
+/// without them and imports them behind it).
+pub fn load_places(
+    places: Vec<(usize, PathBuf)>,
+    n: usize,
+    import: bool,
+    status: &mut dyn FnMut(Status),
+) -> (Vec<Exhibit>, Vec<(usize, PathBuf)>) {
+    let (mut out, mut waiting) = (Vec::new(), Vec::new());
+    let cache = kiosk_content::exhibit::cache_dir();
+    for (place, dir) in places {
+        status(Status::Exhibit(place, n));
+        let opened = if import {
+            kiosk_content::exhibit::open_model_warned(&dir, &cache, &mut |line| {
+                status(Status::Line(line.to_string()))
+            })
+            .map(Some)
+        } else {
+            kiosk_content::exhibit::open_model_cached(&dir, &cache)
+        };
         let store = match opened {
-            Ok((s, warnings)) => {
+            Ok(Some((s, warnings))) => {
                 kiosk_content::exhibit::log_warnings(&dir, &warnings);
                 s
+            }
+            Ok(None) => {
+                waiting.push((place, dir));
+                continue;
             }
             Err(e) => {
                 tracing::error!("exhibit {}: {e:#}; left out of the gallery", dir.display());
@@ -92,6 +113,7 @@ pub fn load_exhibits(config: &Config, status: &mut dyn FnMut(Status)) -> anyhow:
         tracing::info!("exhibit {}: {} samples", dir.display(), store.header().leaf_point_count);
         out.push(Exhibit {
             dir,
+            place,
             store,
             graph,
             up: pose.up,
@@ -99,11 +121,10 @@ pub fn load_exhibits(config: &Config, status: &mut dyn FnMut(Status)) -> anyhow:
             start: std::sync::OnceLock::new(),
         });
     }
-    anyhow::ensure!(!out.is_empty(), "no exhibit could be loaded from {}", config.content.display());
-    Ok(out)
+    (out, waiting)
 }
 
-/// What [`load_exhibits`] is doing, for the windows to show while it works.
+/// What [`load_places`] is doing, for the windows to show while it works.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Status {
     /// Exhibit i (from 0) of n starts loading.

@@ -28,7 +28,7 @@ mod visits;
 
 use anyhow::Context as _;
 use config::Config;
-pub use exhibits::{Exhibit, Status, kiosk_settings, load_exhibits};
+pub use exhibits::{Exhibit, Status, kiosk_settings};
 use graphics::{Graphics, Windows};
 use kiosk_content::snapshot::{lit, node_light, start_light};
 use kiosk_core::camera::{GoTo, SceneRef};
@@ -117,7 +117,8 @@ pub fn run(opts: RunOptions) -> anyhow::Result<()> {
     let mut app = App {
         opts,
         loader,
-        exhibits: &[],
+        exhibits: Vec::new(),
+        joining: Vec::new(),
         display: None,
         state: None,
         ctrl: false,
@@ -129,18 +130,14 @@ pub fn run(opts: RunOptions) -> anyhow::Result<()> {
     event_loop.run_app(&mut app)?;
     match app.state.as_mut() {
         // The visit in progress ends with the kiosk; its statistics are kept.
-        Some(s) => s.persist(app.exhibits, true),
-        // Closed while preparing: an import under way stops with the process, without its work
-        // directory; the next start imports again.
-        None => {
-            if app.closed.is_some() {
-                tracing::info!("closed with no exhibit to show");
-            } else if app.error.is_none() {
-                tracing::info!("closed while preparing the exhibits");
-            }
-            kiosk_content::import::remove_work_dirs();
-        }
+        Some(s) => s.persist(&app.exhibits, true),
+        None if app.closed.is_some() => tracing::info!("closed with no exhibit to show"),
+        None if app.error.is_none() => tracing::info!("closed while preparing the exhibits"),
+        None => {}
     }
+    // An import under way (before the gallery, or behind it) stops with the process, without
+    // its work directory; the next start imports again.
+    kiosk_content::import::remove_work_dirs();
     match app.error {
         Some(e) => Err(e),
         None => Ok(()),
@@ -151,9 +148,11 @@ struct App {
     opts: RunOptions,
     /// The exhibits loading ([`preparing`]).
     loader: preparing::Loader,
-    /// The gallery once loaded, borrowed by the kiosk: kept until the process ends (the kiosk
-    /// holds its models while it lives), so leaked when it comes.
-    exhibits: &'static [Exhibit],
+    /// The gallery once loaded, borrowed by the kiosk: each exhibit is kept until the process
+    /// ends (the kiosk holds its models while it lives), so leaked when it comes.
+    exhibits: Vec<&'static Exhibit>,
+    /// Exhibits imported behind the gallery, waiting for nobody to be at the kiosk to join it.
+    joining: Vec<Exhibit>,
     /// The windows while the exhibits load.
     display: Option<Display>,
     /// The kiosk, once the exhibits are loaded.
@@ -371,16 +370,20 @@ impl App {
                 return;
             }
         }
-        let Some(exhibits) = done else {
+        let Some(gallery) = done else {
             el.set_control_flow(ControlFlow::WaitUntil(Instant::now() + preparing::POLL));
             return;
         };
+        let later = match gallery.waiting {
+            0 => String::new(),
+            n => format!("; {n} more join it once imported"),
+        };
         tracing::info!(
-            "the gallery opens: {} exhibit(s), loaded in {:.1} s",
-            exhibits.len(),
+            "the gallery opens: {} exhibit(s), loaded in {:.1} s{later}",
+            gallery.exhibits.len(),
             self.loader.elapsed()
         );
-        self.exhibits = Box::leak(exhibits.into_boxed_slice());
+        self.exhibits = gallery.exhibits.into_iter().map(leaked).collect();
         let started = match self.display.take() {
             Some(d) => self.start(d),
             None => return,
@@ -416,13 +419,8 @@ impl App {
             seed,
         );
         let fps = settings.explore.fps;
-        let exhibits: &'static [Exhibit] = self.exhibits;
-        let models = exhibits
-            .iter()
-            .map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref(), up: e.up, front: e.front })
-            .collect();
-        let mut kiosk = Kiosk::new(settings, models, 0.0);
-        let visits = visits::VisitLog::open(cfg.state_dir(), self.opts.speed, exhibits, &mut kiosk);
+        let mut kiosk = Kiosk::new(settings, models(&self.exhibits), 0.0);
+        let visits = visits::VisitLog::open(cfg.state_dir(), self.opts.speed, &self.exhibits, &mut kiosk);
         let narrator = kiosk_content::audio::Narrator::new(cfg.volume, self.opts.silent);
         let record = match &self.opts.record {
             Some(p) => {
@@ -585,7 +583,27 @@ impl ApplicationHandler for App {
             return;
         }
         let Some(s) = self.state.as_mut() else { return self.prepare(el) };
-        match s.tick(&self.opts, self.exhibits) {
+        if let Some(more) = self.loader.more()
+            && !more.is_empty()
+        {
+            let names: Vec<String> = more.iter().map(|e| e.dir.display().to_string()).collect();
+            tracing::info!(
+                "imported behind the gallery: {}; they join it when nobody is at the kiosk",
+                names.join(", ")
+            );
+            self.joining.extend(more);
+        }
+        // Nobody at the kiosk: the gallery idle as long as the reset waits.
+        if !self.joining.is_empty()
+            && s.kiosk.mode() == Mode::Gallery
+            && s.kiosk.idle_secs() >= s.kiosk.settings.reset_after_secs
+        {
+            self.exhibits.extend(self.joining.drain(..).map(leaked));
+            self.exhibits.sort_by_key(|e| e.place);
+            s.regallery(&self.exhibits);
+            tracing::info!("the gallery now holds {} exhibits", self.exhibits.len());
+        }
+        match s.tick(&self.opts, &self.exhibits) {
             Ok(true) if s.renew => {
                 if let Some(s) = self.state.take() {
                     match s.renewed(&self.opts.config) {
@@ -604,6 +622,30 @@ impl ApplicationHandler for App {
                 el.exit();
             }
         }
+    }
+}
+
+/// An exhibit kept for the rest of the process: the kiosk borrows its model while it lives.
+fn leaked(e: Exhibit) -> &'static Exhibit {
+    Box::leak(Box::new(e))
+}
+
+/// The kiosk's models: the gallery's exhibits, in order.
+fn models(exhibits: &[&'static Exhibit]) -> Vec<ModelRef<'static, memmap2::Mmap>> {
+    exhibits
+        .iter()
+        .map(|e| ModelRef { store: &e.store, graph: e.graph.as_ref(), up: e.up, front: e.front })
+        .collect()
+}
+
+impl Running<'static> {
+    /// The kiosk anew on a gallery of other `exhibits` (exhibits imported behind it join), in
+    /// the gallery with the same settings at the same time; the statistics and visit log go on.
+    fn regallery(&mut self, exhibits: &[&'static Exhibit]) {
+        let mut kiosk = Kiosk::new(self.kiosk.settings.clone(), models(exhibits), self.sim_t);
+        self.visits.hand_stats(exhibits, &mut kiosk);
+        self.kiosk = kiosk;
+        self.gallery_cut = None;
     }
 }
 
@@ -645,7 +687,7 @@ impl Running<'_> {
     }
 
     /// Steps the core up to the clock, renders, and takes due screenshots. `false` = done.
-    fn tick(&mut self, opts: &RunOptions, exhibits: &[Exhibit]) -> anyhow::Result<bool> {
+    fn tick(&mut self, opts: &RunOptions, exhibits: &[&Exhibit]) -> anyhow::Result<bool> {
         let dt = self.drive.clock().dt();
         let now = self.kiosk_time(opts.speed);
         let end = self.drive.source().end(opts.run_for);
@@ -696,7 +738,7 @@ impl Running<'_> {
 
     /// Writes the visits that ended (and, `exit`, the one in progress) to the log, and the
     /// statistics of the exhibits they explored ([`visits`]).
-    fn persist(&mut self, exhibits: &[Exhibit], exit: bool) {
+    fn persist(&mut self, exhibits: &[&Exhibit], exit: bool) {
         if exit {
             self.kiosk.end_visit(self.sim_t, kiosk_core::stats::VisitEnd::Exit);
         }
@@ -704,7 +746,7 @@ impl Running<'_> {
         self.visits.persist(&mut self.kiosk, exhibits, exit, &mut |what, e| report_once(reported, what, &e));
     }
 
-    fn effect(&mut self, fx: &KioskEffect, exhibits: &[Exhibit]) {
+    fn effect(&mut self, fx: &KioskEffect, exhibits: &[&Exhibit]) {
         match fx {
             KioskEffect::PlayNarration { model, node, lang } => {
                 let Some(ex) = exhibits.get(*model) else { return };
@@ -735,7 +777,7 @@ impl Running<'_> {
     }
 
     /// Renders both windows' canvases and presents them.
-    fn render(&mut self, exhibits: &[Exhibit], t: f64) -> anyhow::Result<()> {
+    fn render(&mut self, exhibits: &[&Exhibit], t: f64) -> anyhow::Result<()> {
         self.rendered += 1;
         // At most one frame in flight: without vsync (Xvfb, some drivers) presenting does not
         // throttle, and frames submitted faster than the GPU draws them pile up in its queue —
@@ -764,7 +806,7 @@ impl Running<'_> {
         Ok(())
     }
 
-    fn render_projection(&mut self, exhibits: &[Exhibit], t: f64) {
+    fn render_projection(&mut self, exhibits: &[&Exhibit], t: f64) {
         let size = self.gfx.projection.canvas.size;
         let model = self.kiosk.model();
         let Some(ex) = exhibits.get(model) else { return };
@@ -956,7 +998,7 @@ impl Running<'_> {
         }
     }
 
-    fn render_controller(&mut self, exhibits: &[Exhibit], t: f64) {
+    fn render_controller(&mut self, exhibits: &[&Exhibit], t: f64) {
         let size = self.gfx.controller.canvas.size;
         let lang = self.kiosk.lang().to_string();
         let model = self.kiosk.model();

@@ -1,7 +1,12 @@
 //! Before the gallery: the windows open at once and say that the kiosk is preparing while the
 //! exhibits load on a thread of their own. A new or changed scan is imported into the cache
 //! first, a quarter of an hour for a billion points here; a dark wall for that long looks
-//! broken to a visitor and hung to a technician. The projection says it in the kiosk's
+//! broken to a visitor and hung to a technician. The exhibits that open at once (stores, scans
+//! already cached) are loaded first: when there are some, the gallery opens with them and the
+//! others are imported behind it, joining the gallery once imported, at the first moment nobody
+//! is at the kiosk (the gallery idle for `reset_after_secs`: the reset's own condition), so that
+//! no visitor sees the gallery change under a finger. A gallery only of new scans waits for all
+//! of them. The projection says it in the kiosk's
 //! languages with a pulse that moves; the controller says the same, with the exhibit loading, the
 //! time taken and the line its import last logged (which scan, the phase, how far).
 //!
@@ -22,7 +27,7 @@
 //! screen is drawn only when it changes: a kiosk may wait for its content for days.
 
 use super::config::Config;
-use super::exhibits::{Exhibit, Status, load_exhibits};
+use super::exhibits::{Exhibit, Status, gallery_places, load_places};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
@@ -79,13 +84,26 @@ impl Closed {
 /// What the loading thread says.
 enum Message {
     Status(Status),
-    Done(anyhow::Result<Vec<Exhibit>>),
+    /// The exhibits the gallery opens with, or why none loads.
+    Gallery(anyhow::Result<Gallery>),
+    /// Exhibits imported after the gallery opened (those that could be).
+    More(Vec<Exhibit>),
+}
+
+/// The exhibits the gallery opens with.
+pub(super) struct Gallery {
+    /// In the gallery's order.
+    pub exhibits: Vec<Exhibit>,
+    /// How many wait for their scan's import, behind the gallery ([`Loader::more`]).
+    pub waiting: usize,
 }
 
 /// The exhibits loading on their thread, and what it last said.
 pub(super) struct Loader {
-    /// The thread's messages; `None` once it said it is done.
+    /// The thread's messages; `None` once it has said all it will.
     rx: Option<mpsc::Receiver<Message>>,
+    /// Whether it gave the gallery's exhibits.
+    opened: bool,
     /// Exhibit i (from 0) of n loading.
     exhibit: Option<(usize, usize)>,
     /// The last line its import logged.
@@ -94,19 +112,72 @@ pub(super) struct Loader {
 }
 
 impl Loader {
-    /// Starts loading the exhibits of `config` on a thread of their own.
+    /// Starts loading the exhibits of `config` on a thread of their own: those that open at
+    /// once (stores, scans cached and up to date) first. When some do and others must be
+    /// imported, the gallery opens with the first and the others follow ([`Loader::more`]);
+    /// otherwise they all come together.
     pub fn spawn(config: Config) -> anyhow::Result<Self> {
         let (tx, rx) = mpsc::channel();
         std::thread::Builder::new().name("exhibits".into()).spawn(move || {
             let mut status = |s: Status| drop(tx.send(Message::Status(s)));
-            let loaded = load_exhibits(&config, &mut status);
-            drop(tx.send(Message::Done(loaded)));
+            let places = match gallery_places(&config) {
+                Ok(places) => places,
+                Err(e) => return drop(tx.send(Message::Gallery(Err(e)))),
+            };
+            let n = places.len();
+            let (mut ready, waiting) = load_places(places, n, false, &mut status);
+            if ready.is_empty() || waiting.is_empty() {
+                let (more, _) = load_places(waiting, n, true, &mut status);
+                ready.extend(more);
+                ready.sort_by_key(|e| e.place);
+                let gallery = if ready.is_empty() {
+                    Err(anyhow::anyhow!("no exhibit could be loaded from {}", config.content.display()))
+                } else {
+                    Ok(Gallery { exhibits: ready, waiting: 0 })
+                };
+                return drop(tx.send(Message::Gallery(gallery)));
+            }
+            let count = waiting.len();
+            drop(tx.send(Message::Gallery(Ok(Gallery { exhibits: ready, waiting: count }))));
+            let (more, _) = load_places(waiting, n, true, &mut status);
+            drop(tx.send(Message::More(more)));
         })?;
-        Ok(Self { rx: Some(rx), exhibit: None, line: String::new(), since: Instant::now() })
+        Ok(Self { rx: Some(rx), opened: false, exhibit: None, line: String::new(), since: Instant::now() })
     }
 
-    /// Takes in what the thread said: the exhibits (or why none loads) when it is done, once.
-    pub fn poll(&mut self) -> Option<anyhow::Result<Vec<Exhibit>>> {
+    /// Takes in what the thread said: the gallery's exhibits (or why none loads) once they are
+    /// loaded, once.
+    pub fn poll(&mut self) -> Option<anyhow::Result<Gallery>> {
+        if self.opened {
+            return None;
+        }
+        match self.next()? {
+            Ok(Message::Gallery(gallery)) => {
+                self.opened = true;
+                Some(gallery)
+            }
+            Ok(_) => None,
+            Err(()) => Some(Err(anyhow::anyhow!("the thread loading the exhibits ended without a word"))),
+        }
+    }
+
+    /// After the gallery opened: the exhibits imported behind it, once they are.
+    pub fn more(&mut self) -> Option<Vec<Exhibit>> {
+        if !self.opened {
+            return None;
+        }
+        match self.next()? {
+            Ok(Message::More(more)) => {
+                self.rx = None;
+                Some(more)
+            }
+            Ok(_) | Err(()) => None,
+        }
+    }
+
+    /// The thread's next message that is not a status (statuses are taken in on the way):
+    /// `None` while there is none, `Err` once the thread ended without it.
+    fn next(&mut self) -> Option<Result<Message, ()>> {
         let rx = self.rx.as_ref()?;
         loop {
             match rx.try_recv() {
@@ -115,16 +186,11 @@ impl Loader {
                     self.line.clear();
                 }
                 Ok(Message::Status(Status::Line(line))) => self.line = line,
-                Ok(Message::Done(loaded)) => {
-                    self.rx = None;
-                    return Some(loaded);
-                }
+                Ok(message) => return Some(Ok(message)),
                 Err(mpsc::TryRecvError::Empty) => return None,
                 Err(mpsc::TryRecvError::Disconnected) => {
                     self.rx = None;
-                    return Some(Err(anyhow::anyhow!(
-                        "the thread loading the exhibits ended without a word"
-                    )));
+                    return Some(Err(()));
                 }
             }
         }

@@ -23,20 +23,25 @@ impl VisitLog {
     pub(super) fn open<B: AsRef<[u8]>>(
         state_dir: PathBuf,
         speed: f64,
-        exhibits: &[Exhibit],
+        exhibits: &[&Exhibit],
         kiosk: &mut Kiosk<'_, B>,
     ) -> Self {
-        for (i, ex) in exhibits.iter().enumerate() {
-            kiosk.set_stats(
-                i,
-                stats::load_stats(&stats::stats_path(&state_dir, &stats::exhibit_name(&ex.dir))),
-            );
-        }
         tracing::info!("visit statistics in {}", state_dir.display());
         let wall_origin = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0.0, |d| d.as_secs_f64());
-        Self { state_dir, wall_origin, speed: speed.max(1e-3) }
+        let log = Self { state_dir, wall_origin, speed: speed.max(1e-3) };
+        log.hand_stats(exhibits, kiosk);
+        log
+    }
+
+    /// Each exhibit's saved statistics handed to `kiosk`, whose models are `exhibits` in order
+    /// (at the start, and when exhibits imported behind the gallery join it).
+    pub(super) fn hand_stats<B: AsRef<[u8]>>(&self, exhibits: &[&Exhibit], kiosk: &mut Kiosk<'_, B>) {
+        for (i, ex) in exhibits.iter().enumerate() {
+            let path = stats::stats_path(&self.state_dir, &stats::exhibit_name(&ex.dir));
+            kiosk.set_stats(i, stats::load_stats(&path));
+        }
     }
 
     /// The state directory.
@@ -49,7 +54,7 @@ impl VisitLog {
     pub(super) fn persist<B: AsRef<[u8]>>(
         &self,
         kiosk: &mut Kiosk<'_, B>,
-        exhibits: &[Exhibit],
+        exhibits: &[&Exhibit],
         exit: bool,
         report: &mut dyn FnMut(&str, String),
     ) {
