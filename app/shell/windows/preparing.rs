@@ -5,8 +5,8 @@
 //! already cached) are loaded first: when there are some, the gallery opens with them and the
 //! others are imported behind it, joining the gallery once imported, at the first moment nobody
 //! is at the kiosk (the gallery idle for `reset_after_secs`: the reset's own condition), so that
-//! no visitor sees the gallery change under a finger. A gallery only of new scans waits for all
-//! of them. The projection says it in the kiosk's
+//! no visitor sees the gallery change under a finger (a session recorded meanwhile replays on the
+//! gallery it ends with). A gallery only of new scans waits for all of them. The projection says it in the kiosk's
 //! languages with a pulse that moves; the controller says the same, with the exhibit loading, the
 //! time taken and the line its import last logged (which scan, the phase, how far).
 //!
