@@ -47,7 +47,7 @@ struct RunArgs {
     #[arg(long, value_name = "SECS", requires = "session")]
     run_for: Option<f64>,
     /// With --run-for: kiosk time after which the memory is taken as the reference.
-    #[arg(long, default_value_t = 300.0, value_name = "SECS")]
+    #[arg(long, default_value_t = 300.0, value_name = "SECS", requires = "run_for")]
     warmup: f64,
     /// No audio device, even if there is one.
     #[arg(long)]
@@ -56,7 +56,7 @@ struct RunArgs {
     #[arg(long)]
     trace: Option<PathBuf>,
     /// With --record: replace an existing recording.
-    #[arg(long)]
+    #[arg(long, requires = "record")]
     force: bool,
 }
 
@@ -306,6 +306,14 @@ fn main() -> anyhow::Result<()> {
                 eprintln!("warning: {}: {w}", scan.display());
             }
             println!("{}: {report}", output.display());
+            if kiosk_content::exhibit::stands_on_z(&scan) {
+                eprintln!(
+                    "note: the kiosk stands a {} scan on Z, but a store does not keep its scan's format: \
+                     an exhibit showing {} needs up = \"z\" in its exhibit.toml",
+                    scan.extension().map_or(String::new(), |e| e.to_string_lossy().to_uppercase()),
+                    output.display()
+                );
+            }
         }
         Command::Verify { store } => {
             let s = kiosk_content::open_store(&store)?;
@@ -330,7 +338,7 @@ fn main() -> anyhow::Result<()> {
             let store = kiosk_content::exhibit::open_model(&exhibit)?;
             let size = parse_size(&size)?;
             // The view and its light: a node's stored light, else the light a visit starts with.
-            let pose = kiosk_content::exhibit::model_pose(&exhibit)?;
+            let pose = pose_as_the_kiosk_takes_it(&exhibit);
             let start = kiosk_core::camera::start_camera(&store, 0.8, pose.up, pose.front);
             let start_light = kiosk_content::snapshot::start_light(&start);
             let (camera, light) = match (view, node) {
@@ -431,7 +439,7 @@ fn main() -> anyhow::Result<()> {
         }
         Command::Replay { exhibit, session, trace, controller, seed } => {
             let store = kiosk_content::exhibit::open_model(&exhibit)?;
-            let pose = kiosk_content::exhibit::model_pose(&exhibit)?;
+            let pose = pose_as_the_kiosk_takes_it(&exhibit);
             let text = std::fs::read_to_string(&session)
                 .with_context(|| format!("cannot read session {}", session.display()))?;
             let parsed = kiosk_core::session::Session::parse(&text)
@@ -549,6 +557,16 @@ fn parse_size(s: &str) -> anyhow::Result<(u32, u32)> {
     let (w, h): (u32, u32) = (w.trim().parse()?, h.trim().parse()?);
     anyhow::ensure!((1..=16384).contains(&w) && (1..=16384).contains(&h), "size {w}x{h} outside 1…16384");
     Ok((w, h))
+}
+
+/// An exhibit's pose as the kiosk takes it: what `exhibit.toml` could give, a key it could not
+/// take at its default, each problem logged (a snapshot or replay shows what the kiosk shows).
+fn pose_as_the_kiosk_takes_it(exhibit: &std::path::Path) -> kiosk_content::exhibit::ModelPose {
+    let settings = kiosk_content::exhibit::exhibit_settings(exhibit);
+    for message in settings.messages() {
+        tracing::warn!("{message}");
+    }
+    settings.pose
 }
 
 #[cfg(test)]

@@ -139,7 +139,7 @@ pub fn run(opts: &StatsOptions) -> anyhow::Result<String> {
                 opts.exhibit,
                 opts.state.display()
             );
-            kiosk_content::stats::load_stats(&path)
+            kiosk_content::stats::read_stats(&path)?
         }
     };
     let mut text = format!("{}: {} visits\n", opts.exhibit, stats.visits);
@@ -349,6 +349,23 @@ mod tests {
         .expect("report since");
         let recent = kept.iter().filter(|v| v.wall_start.is_some_and(|w| w >= since)).count();
         assert!(text.starts_with(&format!("demo: {recent} visits")), "{text}");
+    }
+
+    #[test]
+    fn a_report_on_damaged_statistics_says_so_and_leaves_them_for_the_kiosk() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = stats_path(dir.path(), "bust");
+        std::fs::create_dir_all(path.parent().expect("dir")).expect("mkdir");
+        std::fs::write(&path, b"{\"visits\": 3, \"nod").expect("write");
+        let opts = StatsOptions {
+            exhibit: "bust".into(),
+            since: None,
+            out: dir.path().join("out"),
+            state: dir.path().into(),
+        };
+        let e = run(&opts).expect_err("damaged");
+        assert!(e.to_string().contains(&format!("the statistics {} are damaged", path.display())), "{e:#}");
+        assert_eq!(std::fs::read(&path).expect("still there"), b"{\"visits\": 3, \"nod");
     }
 
     #[test]

@@ -64,7 +64,11 @@ fn main() -> anyhow::Result<()> {
             && let Some((project, problems)) = opening.poll()
         {
             let mut opened = AuthorApp::new(project, problems, gpu.take().flatten());
-            opened.visitor_stats = kiosk_content::stats::load_stats(&stats);
+            // The kiosk's file, read only: a damaged one is the kiosk's to set aside.
+            opened.visitor_stats = kiosk_content::stats::read_stats(&stats).unwrap_or_else(|e| {
+                tracing::error!("{e:#}; the views are shown without visitor statistics");
+                Default::default()
+            });
             app = Some(opened);
         }
         match app.as_mut() {

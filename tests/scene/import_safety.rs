@@ -253,3 +253,25 @@ fn import_errors_say_each_cause_once_and_name_the_file_and_the_place() {
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("--node-points") && err.contains("16..=1000000"), "{err}");
 }
+
+#[test]
+fn a_store_made_from_a_survey_scan_says_its_exhibit_must_stand_it_on_z() {
+    // The kiosk stands a LAS, LAZ or E57 scan on Z; a store made from one keeps no format, so
+    // the import says what its exhibit needs. A PLY store needs nothing.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let formats = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/formats");
+    let run = |scan: &Path, name: &str| {
+        let out = dir.path().join(name);
+        let o = kiosk().arg("import").arg("--quiet").arg(scan).arg("-o").arg(&out).output().expect("kiosk");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let said = run(&formats.join("simple.laz"), "simple.kstore");
+    let note = format!(
+        "note: the kiosk stands a LAZ scan on Z, but a store does not keep its scan's format: an exhibit showing {} \
+         needs up = \"z\" in its exhibit.toml",
+        dir.path().join("simple.kstore").display()
+    );
+    assert!(said.contains(&note), "{said}");
+    assert!(!run(&dragon(), "dragon.kstore").contains("note:"));
+}

@@ -45,6 +45,8 @@ fn truncated_store_is_a_clear_error() {
         assert!(matches!(e, StoreError::Truncated { .. }), "cut at {cut}: {e}");
         assert!(e.to_string().starts_with("store truncated"), "{e}");
     }
+    // A short file that is no store at all (a text named .kstore) says so, not "truncated".
+    assert_eq!(store_error(b"hello\n"), StoreError::BadMagic);
 }
 
 #[test]

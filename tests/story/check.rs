@@ -84,6 +84,17 @@ fn kiosk_check_lists_what_the_kiosk_would_leave_out_naming_file_and_node() {
         .collect();
     assert!(extent.len() == 6 && extent.chunks(2).all(|r| r[0] < r[1]), "{model}");
 
+    // A mandatory edge back to the first node: a cycle, and the nodes behind it are never shown.
+    let cycle = dir.path().join("cycle");
+    common::copy_dir(&content.join("demosthenes"), &cycle);
+    let graph = std::fs::read_to_string(cycle.join("graph.xml")).expect("graph");
+    let graph =
+        graph.replacen("</infograph>", "  <edge from=\"face\" to=\"intro\" weight=\"1\"/>\n</infograph>", 1);
+    std::fs::write(cycle.join("graph.xml"), graph).expect("write");
+    let (ok, out) = check(&[&cycle], false);
+    let g = cycle.join("graph.xml").display().to_string();
+    assert!(!ok && out.contains(&format!("error: {g}: node 'intro': can never be shown")), "{out}");
+
     // The folder of exhibits given for one, or a directory that is not there: said so.
     let (ok, out) = check(&[dir.path()], false);
     assert!(!ok && out.contains("holds exhibits: ") && out.contains("demosthenes"), "{out}");
@@ -116,7 +127,9 @@ fn kiosk_check_lists_what_the_kiosk_would_leave_out_naming_file_and_node() {
     let (ok, out) = check(&[&stored], true);
     let root = kiosk_content::open_store(&store).expect("store").root();
     assert!(
-        !ok && out.contains(&format!("error: model: store corrupted: node {root} data checksum mismatch")),
+        !ok && out.contains(&format!(
+            "error: model bust.kstore: store corrupted: node {root} data checksum mismatch"
+        )),
         "{out}"
     );
 }
@@ -196,6 +209,25 @@ fn the_readers_warnings_are_listed_at_every_check_not_only_the_first_import() {
     let (ok, out) = check_with_cache(&cache, &[&exhibit], false);
     assert!(ok && !out.contains("warning"), "{out}");
     assert_eq!((notes("kstore"), notes("warnings")), (1, 0), "{out}");
+
+    // A store beside its scan is shown instead of it: once the scan is edited after the store
+    // was made, the check says the kiosk shows the older import.
+    let o = Command::new(env!("CARGO_BIN_EXE_kiosk"))
+        .args(["import", "--quiet"])
+        .arg(exhibit.join("grid.ply"))
+        .arg("-o")
+        .arg(exhibit.join("grid.kstore"))
+        .output()
+        .expect("import");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (ok, out) = check_with_cache(&cache, &[&exhibit], false);
+    assert!(ok && out.contains("model grid.kstore: 400 samples") && !out.contains("warning"), "{out}");
+    let text = std::fs::read_to_string(exhibit.join("grid.ply")).expect("read");
+    std::fs::write(exhibit.join("grid.ply"), text).expect("write");
+    let (ok, out) = check_with_cache(&cache, &[&exhibit], false);
+    let stale =
+        "warning: model grid.kstore: older than the scan grid.ply beside it, which the kiosk does not show";
+    assert!(ok && out.contains(stale), "{out}");
 }
 
 #[test]

@@ -17,13 +17,20 @@ enum Manager {
 /// Decodes a narration file completely (WAV with PCM, Ogg Vorbis, MP3, FLAC), as the kiosk and
 /// the authoring tool play it; the error names the file.
 pub fn decode(path: &Path) -> Result<StaticSoundData, String> {
-    StaticSoundData::from_file(path).map_err(|e| {
+    let unplayable = |e: String| {
         format!(
             "narration {}: not a sound the kiosk can play (WAV with PCM, Ogg Vorbis, MP3 or FLAC): {e}; the node \
              is shown without it",
             path.display()
         )
-    })
+    };
+    let data = StaticSoundData::from_file(path).map_err(|e| unplayable(e.to_string()))?;
+    // A header can say anything: a rate of 0 would make its length infinite (and the player
+    // divide by it).
+    if data.sample_rate == 0 {
+        return Err(unplayable("its header gives a sample rate of 0".into()));
+    }
+    Ok(data)
 }
 
 /// Plays one narration at a time.
@@ -135,5 +142,43 @@ impl Narrator {
             h.stop(Tween { duration: std::time::Duration::from_millis(300), ..Default::default() });
         }
         self.current = None;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 16-bit mono PCM WAV of `samples` zeros whose header gives `rate`.
+    fn wav(rate: u32, samples: u32) -> Vec<u8> {
+        let data = samples * 2;
+        let mut b = Vec::new();
+        b.extend_from_slice(b"RIFF");
+        b.extend_from_slice(&(36 + data).to_le_bytes());
+        b.extend_from_slice(b"WAVEfmt ");
+        b.extend_from_slice(&16u32.to_le_bytes());
+        b.extend_from_slice(&1u16.to_le_bytes());
+        b.extend_from_slice(&1u16.to_le_bytes());
+        b.extend_from_slice(&rate.to_le_bytes());
+        b.extend_from_slice(&(rate * 2).to_le_bytes());
+        b.extend_from_slice(&2u16.to_le_bytes());
+        b.extend_from_slice(&16u16.to_le_bytes());
+        b.extend_from_slice(b"data");
+        b.extend_from_slice(&data.to_le_bytes());
+        b.resize(b.len() + data as usize, 0);
+        b
+    }
+
+    #[test]
+    fn a_wav_whose_header_gives_no_sample_rate_is_refused_not_played() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let good = dir.path().join("good.wav");
+        std::fs::write(&good, wav(8000, 800)).expect("write");
+        let d = decode(&good).expect("a good WAV");
+        assert!((d.duration().as_secs_f64() - 0.1).abs() < 1e-9);
+        let bad = dir.path().join("rate0.wav");
+        std::fs::write(&bad, wav(0, 800)).expect("write");
+        let e = decode(&bad).expect_err("refused");
+        assert!(e.contains("rate0.wav") && e.contains("sample rate of 0"), "{e}");
     }
 }

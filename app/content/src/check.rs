@@ -46,10 +46,11 @@ pub fn check(dir: &Path, cache: &Path, full: bool) -> Checked {
             // In the model's coordinates, those of graph.xml's views.
             let b = store.bbox();
             let (lo, hi) = (store.origin() + b.min.as_dvec3(), store.origin() + b.max.as_dvec3());
+            let name = name.unwrap_or_default();
             c.sound.push(format!(
                 "model {}: {} samples at full resolution, {} nodes, {} levels; x {:.3} to {:.3}, y {:.3} to \
                  {:.3}, z {:.3} to {:.3}",
-                name.unwrap_or_default(),
+                name,
                 h.leaf_point_count,
                 h.node_count,
                 store.levels(),
@@ -67,7 +68,7 @@ pub fn check(dir: &Path, cache: &Path, full: bool) -> Checked {
                     Some(first) => c.problems.push((
                         true,
                         format!(
-                            "model: {first} ({} node(s) fail their check; the kiosk draws their ancestors)",
+                            "model {name}: {first} ({} node(s) fail their check; the kiosk draws their ancestors)",
                             bad.len()
                         ),
                     )),
@@ -127,10 +128,14 @@ pub fn check(dir: &Path, cache: &Path, full: bool) -> Checked {
         graph.edges.len(),
         langs.into_iter().map(String::as_str).collect::<Vec<_>>().join(", ")
     ));
-    // A dropped node or edge, and an ignored light, box or path, are left out; a clamped
-    // importance or a cut text are shown as corrected.
+    // A dropped node or edge, an ignored light, box or path, and a node that can never be shown
+    // (a cycle of mandatory edges) are left out; a clamped importance or a cut text are shown as
+    // corrected.
+    let never: std::collections::BTreeSet<&str> =
+        graph.never_shown().into_iter().map(|i| graph.nodes[i].id.as_str()).collect();
     for p in problems {
-        let left_out = p.dropped || p.msg.ends_with("; ignored");
+        let never_shown = p.node.as_deref().is_some_and(|id| never.contains(id));
+        let left_out = p.dropped || p.msg.ends_with("; ignored") || never_shown;
         c.problems.push((left_out, format!("{}: {p}", graph_file.display())));
     }
     // Every media file opened as the kiosk opens it (images decoded, narrations decoded whole):

@@ -59,6 +59,31 @@ pub fn model_file(dir: &Path) -> anyhow::Result<PathBuf> {
     }
 }
 
+/// A warning when a scan beside the exhibit's `store` was changed after it: the kiosk shows the
+/// store (an older import), not the scan a curator just edited.
+fn stale_store(dir: &Path, store: &Path) -> Vec<String> {
+    let modified = |p: &Path| std::fs::metadata(p).ok().as_ref().and_then(modified_nanos);
+    let Some(made) = modified(store) else { return Vec::new() };
+    let Ok(entries) = std::fs::read_dir(dir) else { return Vec::new() };
+    let mut newer: Vec<String> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| SCANS.iter().any(|e| lower_name(p).ends_with(e)) && !lower_name(p).starts_with('.'))
+        .filter(|p| modified(p).is_some_and(|m| m > made))
+        .map(|p| file_name(&p))
+        .collect();
+    newer.sort();
+    newer
+        .into_iter()
+        .map(|scan| {
+            format!(
+                "{}: older than the scan {scan} beside it, which the kiosk does not show: import the scan \
+                 again into the store (kiosk import), or remove the store",
+                file_name(store)
+            )
+        })
+        .collect()
+}
+
 /// Opens an exhibit's model, importing a scan into the cache ([`cache_dir`]) when needed (see
 /// [`cache_name`]: an edited scan, other settings or a new builder import it again).
 pub fn open_model(dir: &Path) -> anyhow::Result<MappedStore> {
@@ -110,7 +135,7 @@ fn open_model_or_not(
 ) -> anyhow::Result<Option<(MappedStore, Vec<String>)>> {
     let file = model_file(dir)?;
     if file.extension().is_some_and(|e| e.eq_ignore_ascii_case("kstore")) {
-        return Ok(Some((crate::open_store(&file)?, Vec::new())));
+        return Ok(Some((crate::open_store(&file)?, stale_store(dir, &file))));
     }
     // Whatever the working directory, so that the files it names are noted by the same paths by
     // every program sharing the cache (the kiosk, `kiosk check`, the authoring tool).
@@ -656,8 +681,13 @@ fn scaled(v: glam::DVec3) -> glam::DVec3 {
 /// E57: their Z is the height, by their specifications and in practice), +Y for the rest (glTF's
 /// own convention, and most mesh exports).
 fn default_up(dir: &Path) -> glam::DVec3 {
-    let survey = |p: PathBuf| SURVEYS.iter().any(|e| lower_name(&p).ends_with(e));
-    if model_file(dir).is_ok_and(survey) { glam::DVec3::Z } else { glam::DVec3::Y }
+    if model_file(dir).is_ok_and(|p| stands_on_z(&p)) { glam::DVec3::Z } else { glam::DVec3::Y }
+}
+
+/// Whether a scan stands on Z when its exhibit does not say (LAS, LAZ, E57). A store does not
+/// keep its scan's format: an exhibit showing a store made from one needs `up = "z"`.
+pub fn stands_on_z(scan: &Path) -> bool {
+    SURVEYS.iter().any(|e| lower_name(scan).ends_with(e))
 }
 
 /// The name of an up axis in messages: "+Z", "-Y"; other directions as vectors.
@@ -693,13 +723,37 @@ pub fn open_graph(
     if !path.exists() {
         return Ok(None);
     }
-    let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
+    let bytes = std::fs::read(&path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text = story_text(&path, bytes)?;
     let (graph, mut problems) =
         kiosk_core::graph::InfoGraph::from_xml(&text).with_context(|| format!("{}", path.display()))?;
     problems.extend(graph.check_files(VIEW_ASPECT, &|p: &str| probe_media(dir, p)));
     let mut graph = graph;
     load_roi_masks(dir, &mut graph);
     Ok(Some((graph, problems)))
+}
+
+/// A story file's text: UTF-8 (a byte-order mark allowed), and not empty; otherwise an error
+/// that says what the file is and what to do (an editor's "Unicode" is UTF-16, an old one's
+/// default Latin-1).
+fn story_text(path: &Path, bytes: Vec<u8>) -> anyhow::Result<String> {
+    if bytes.iter().all(u8::is_ascii_whitespace) {
+        anyhow::bail!(
+            "{}: the file is empty; a story is an <infograph> element (see content/*/graph.xml)",
+            path.display()
+        );
+    }
+    if bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]) {
+        anyhow::bail!("{}: the file is UTF-16; save it as UTF-8", path.display());
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let line = e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+        anyhow::anyhow!(
+            "{}: line {line}: not UTF-8 (byte {at}; a Latin-1 or Windows-1252 accent?): save the file as UTF-8",
+            path.display()
+        )
+    })
 }
 
 /// The narration files `paths` name: a file stands for itself, an exhibit directory for every
@@ -775,6 +829,20 @@ pub fn probe_media(dir: &Path, rel: &str) -> Result<Option<(u32, u32)>, String> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_story_saved_empty_or_in_another_encoding_says_what_to_do() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let graph = dir.path().join("graph.xml");
+        let said = |bytes: &[u8]| {
+            std::fs::write(&graph, bytes).expect("write");
+            format!("{:#}", open_graph(dir.path()).expect_err("refused"))
+        };
+        assert!(said(b"").contains("graph.xml: the file is empty"));
+        assert!(said(b"\xFF\xFE<\0i\0").contains("graph.xml: the file is UTF-16; save it as UTF-8"));
+        let latin1 = b"<?xml version=\"1.0\" encoding=\"ISO-8859-1\"?>\n<infograph>\n<title>Caf\xE9</title>";
+        assert!(said(latin1).contains("graph.xml: line 3: not UTF-8 (byte 66;"), "{}", said(latin1));
+    }
 
     #[test]
     fn an_exhibit_states_its_models_up_axis() {

@@ -62,6 +62,23 @@ pub fn load_stats(path: &Path) -> ExhibitStats {
     }
 }
 
+/// Reads an exhibit's statistics without changing anything (a report, the authoring tool; the
+/// kiosk, which owns the file, sets a broken one aside: [`load_stats`]): missing → empty;
+/// unreadable or corrupt → an error naming the file.
+pub fn read_stats(path: &Path) -> anyhow::Result<ExhibitStats> {
+    let bytes = match std::fs::read(path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(ExhibitStats::default()),
+        Err(e) => anyhow::bail!("cannot read the statistics {}: {e}", path.display()),
+    };
+    serde_json::from_slice(&bytes).map_err(|e| {
+        anyhow::anyhow!(
+            "the statistics {} are damaged: {e} (the kiosk sets them aside at its next start)",
+            path.display()
+        )
+    })
+}
+
 /// Renames a broken file to the first free `NAME.corrupt-N`.
 fn set_aside(path: &Path) -> std::io::Result<PathBuf> {
     for n in 1.. {

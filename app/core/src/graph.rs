@@ -270,7 +270,10 @@ struct RawNode {
     /// Read as text so that a bad value is that node's problem, not the whole file's.
     #[serde(rename = "@importance", default = "one")]
     importance: String,
-    view: Option<RawView>,
+    /// Held once; read as a list so that a second is that node's problem, not the whole file's
+    /// (as are the thumbnail and the region of interest).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    view: Vec<RawView>,
     #[serde(rename = "title", default, skip_serializing_if = "Vec::is_empty")]
     titles: Vec<RawText>,
     #[serde(rename = "text", default, skip_serializing_if = "Vec::is_empty")]
@@ -279,10 +282,10 @@ struct RawNode {
     overlays: Vec<RawFile>,
     #[serde(rename = "narration", default, skip_serializing_if = "Vec::is_empty")]
     narrations: Vec<RawFile>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    thumbnail: Option<RawFile>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    roi: Option<RawRoi>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    thumbnail: Vec<RawFile>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    roi: Vec<RawRoi>,
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -383,6 +386,24 @@ fn check_names(text: &str, problems: &mut Vec<Problem>) -> Result<(), GraphError
                 continue;
             }
             Event::Eof => return Ok(()),
+            // An entity XML does not know (`&eacute;`, from HTML) would fail the whole story
+            // later with a place in its text alone: said here with its line.
+            Event::GeneralRef(r) => {
+                let name = r.xml10_content();
+                let known = if r.is_char_ref() {
+                    r.resolve_char_ref().is_ok_and(|c| c.is_some())
+                } else {
+                    quick_xml::escape::resolve_predefined_entity(&name).is_some()
+                };
+                if !known {
+                    return Err(GraphError::Xml(format!(
+                        "line {}: &{name}; is not an XML entity (XML has &lt; &gt; &amp; &apos; &quot; and \
+                         &#…; numbers): write the character itself, the file is UTF-8",
+                        line(at)
+                    )));
+                }
+                continue;
+            }
             _ => continue,
         };
         let name = e.name().as_ref().to_string();
@@ -460,8 +481,43 @@ fn fmt3(v: DVec3) -> String {
     format!("{} {} {}", v.x, v.y, v.z)
 }
 
-fn per_language(items: impl Iterator<Item = (Option<String>, String)>, default: &str) -> PerLanguage {
-    PerLanguage(items.map(|(l, v)| (l.unwrap_or_else(|| default.to_string()), v)).collect())
+/// `what`'s items by language (one without a language stands for `default`), the first of each
+/// kept, and what to say of them: a code written in capitals or with spaces (`IT`) is read as
+/// the kiosk's (`it`), one that is no code at all (`""`, `italiano`) is shown to nobody, and a
+/// second item for a language is ignored.
+fn per_language(
+    what: &str,
+    items: impl Iterator<Item = (Option<String>, String)>,
+    default: &str,
+) -> (PerLanguage, Vec<String>) {
+    let (mut out, mut said) = (BTreeMap::new(), Vec::new());
+    for (l, v) in items {
+        let code = match l {
+            None => default.to_string(),
+            Some(l) => {
+                let code = l.trim().to_ascii_lowercase();
+                if code != l {
+                    said.push(format!("{what} lang=\"{l}\" read as \"{code}\""));
+                }
+                code
+            }
+        };
+        let letters =
+            code.split('-').all(|part| !part.is_empty() && part.chars().all(|c| c.is_ascii_alphanumeric()));
+        if !letters || code.split('-').next().is_none_or(|first| !(2..=3).contains(&first.len())) {
+            said.push(format!(
+                "{what} lang=\"{code}\" is not a language code (en, it, de-CH, …): no visitor sees it"
+            ));
+        }
+        if out.contains_key(&code) {
+            said.push(format!(
+                "a second {what} for language '{code}' (one without lang stands for '{default}'); ignored"
+            ));
+            continue;
+        }
+        out.insert(code, v);
+    }
+    (PerLanguage(out), said)
 }
 
 /// Longest node id, in bytes.
@@ -541,7 +597,18 @@ impl InfoGraph {
                 bad(Some(&id), "duplicate id; the later node is dropped".into(), true);
                 continue;
             }
-            let Some(v) = n.view else {
+            for (what, count) in
+                [("view", n.view.len()), ("thumbnail", n.thumbnail.len()), ("roi", n.roi.len())]
+            {
+                if count > 1 {
+                    bad(
+                        Some(&id),
+                        format!("{count} <{what}> elements; the first is kept, the others ignored"),
+                        false,
+                    );
+                }
+            }
+            let Some(v) = n.view.into_iter().next() else {
                 bad(Some(&id), "no <view>; dropped".into(), true);
                 continue;
             };
@@ -553,10 +620,22 @@ impl InfoGraph {
                 bad(Some(&id), format!("view fov {:?} is not a number; dropped", v.fov), true);
                 continue;
             };
-            if (target - eye).length() <= 0.0 || !(fov > 0.0 && fov < std::f64::consts::PI) {
+            if (target - eye).length() <= 0.0 {
+                bad(Some(&id), format!("view has eye = target ({}); dropped", fmt3(eye)), true);
+                continue;
+            }
+            // The range the kiosk's own field of view takes (`fov_deg`): wider, the model is a
+            // dot in the middle; narrower, a view nobody could recognise, and neither shows.
+            let (lo, hi) = (1f64.to_radians(), 170f64.to_radians());
+            if !(lo..=hi).contains(&fov) {
+                let degrees = if (1.0..=170.0).contains(&fov) {
+                    format!("; {fov} degrees would be {:.3}", fov.to_radians())
+                } else {
+                    String::new()
+                };
                 bad(
                     Some(&id),
-                    "view has eye = target or a field of view outside (0, π); dropped".into(),
+                    format!("view fov {fov} radians is outside 1°–170° ({lo:.3}–{hi:.3}){degrees}; dropped"),
                     true,
                 );
                 continue;
@@ -595,7 +674,7 @@ impl InfoGraph {
             }
             let roi_bbox = match n
                 .roi
-                .as_ref()
+                .first()
                 .map(|r| (r.min.as_deref().map(vec3), r.max.as_deref().map(vec3)))
             {
                 Some((Some(Some(a)), Some(Some(b)))) => Some((a.min(b), a.max(b))),
@@ -625,12 +704,15 @@ impl InfoGraph {
                 |what: &str, list: Vec<RawFile>, media: &mut dyn FnMut(&str, String) -> Option<String>| {
                     let items: Vec<_> =
                         list.into_iter().filter_map(|f| Some((f.lang, media(what, f.src)?))).collect();
-                    per_language(items.into_iter(), &lang)
+                    per_language(what, items.into_iter(), &lang)
                 };
-            let overlay = files("overlay", n.overlays, &mut media);
-            let narration = files("narration", n.narrations, &mut media);
-            let thumbnail = n.thumbnail.and_then(|f| media("thumbnail", f.src));
-            let roi_mask = n.roi.and_then(|r| r.mask).and_then(|m| media("roi mask", m));
+            let (overlay, said_overlays) = files("overlay", n.overlays, &mut media);
+            let (narration, said_narrations) = files("narration", n.narrations, &mut media);
+            let thumbnail = n.thumbnail.into_iter().next().and_then(|f| media("thumbnail", f.src));
+            let roi_mask = n.roi.into_iter().next().and_then(|r| r.mask).and_then(|m| media("roi mask", m));
+            for msg in said_overlays.into_iter().chain(said_narrations) {
+                bad(Some(&id), msg, false);
+            }
             let mut text = |what: &str, list: Vec<RawText>| {
                 let items: Vec<_> = list
                     .into_iter()
@@ -647,7 +729,11 @@ impl InfoGraph {
                         (t.lang, v)
                     })
                     .collect();
-                per_language(items.into_iter(), &lang)
+                let (texts, said) = per_language(what, items.into_iter(), &lang);
+                for msg in said {
+                    bad(Some(&id), msg, false);
+                }
+                texts
             };
             let title = text("title", n.titles);
             let text = text("text", n.texts);
@@ -673,13 +759,24 @@ impl InfoGraph {
         for e in raw.edges {
             // Ids are trimmed as the nodes' are.
             let (Some(&from), Some(&to)) = (index.get(e.from.trim()), index.get(e.to.trim())) else {
-                let unknown = if index.contains_key(e.from.trim()) { e.to.trim() } else { e.from.trim() };
-                let why = if seen.contains(unknown) {
-                    "names a node dropped above"
-                } else {
-                    "names an unknown node"
-                };
-                bad(Some(unknown), format!("edge {} → {} {why}; dropped", e.from, e.to), true);
+                let (from, to) = (e.from.trim(), e.to.trim());
+                let (unknown, other) = if index.contains_key(from) { (to, from) } else { (from, to) };
+                if seen.contains(unknown) {
+                    bad(
+                        Some(unknown),
+                        format!("edge {} → {} names a node dropped above; dropped", e.from, e.to),
+                        true,
+                    );
+                    continue;
+                }
+                // No node by that name: the problem goes to the node at the edge's other end, if
+                // there is one (the authoring tool selects it).
+                let at = index.contains_key(other).then_some(other);
+                bad(
+                    at,
+                    format!("edge {} → {} names an unknown node '{unknown}'; dropped", e.from, e.to),
+                    true,
+                );
                 continue;
             };
             let weight = number(&e.weight).unwrap_or(f64::NAN);
@@ -801,23 +898,26 @@ impl InfoGraph {
         RawNode {
             id: n.id.clone(),
             importance: n.importance.to_string(),
-            view: Some(RawView {
+            view: vec![RawView {
                 eye: fmt3(n.view.eye),
                 target: fmt3(n.view.target),
                 up: fmt3(n.view.up),
                 fov: n.view.fov_y.to_string(),
                 light: n.light.map(fmt3),
-            }),
+            }],
             titles: texts(&n.title),
             texts: texts(&n.text),
             overlays: files(&n.overlay),
             narrations: files(&n.narration),
-            thumbnail: n.thumbnail.clone().map(|src| RawFile { lang: None, src }),
-            roi: (n.roi_mask.is_some() || n.roi_bbox.is_some()).then(|| RawRoi {
-                mask: n.roi_mask.clone(),
-                min: n.roi_bbox.map(|b| fmt3(b.0)),
-                max: n.roi_bbox.map(|b| fmt3(b.1)),
-            }),
+            thumbnail: n.thumbnail.clone().map(|src| RawFile { lang: None, src }).into_iter().collect(),
+            roi: (n.roi_mask.is_some() || n.roi_bbox.is_some())
+                .then(|| RawRoi {
+                    mask: n.roi_mask.clone(),
+                    min: n.roi_bbox.map(|b| fmt3(b.0)),
+                    max: n.roi_bbox.map(|b| fmt3(b.1)),
+                })
+                .into_iter()
+                .collect(),
         }
     }
 
@@ -1304,7 +1404,7 @@ mod tests {
         assert!(has("node 'a': duplicate id"));
         assert!(has("node 'b': importance 3 outside [0, 1]"));
         assert!(has("node 'e': view eye/target/up"));
-        assert!(has("node 'zzz': edge a → zzz names an unknown node"));
+        assert!(has("node 'a': edge a → zzz names an unknown node 'zzz'"));
         assert!(!has("names a node dropped above"), "{text:?}");
         // An edge to a node that was dropped says so, rather than calling it unknown.
         let xml =
@@ -1338,5 +1438,56 @@ mod tests {
             g.check_files(16.0 / 9.0, &probe).iter().map(ToString::to_string).collect();
         assert!(problems.iter().any(|p| p.contains("node 'intro': overlay overlays/intro.png is 1000×1000")));
         assert!(problems.iter().any(|p| p.contains("node 'intro': narration audio/intro-en.ogg: missing")));
+    }
+    #[test]
+    fn an_html_entity_and_a_field_of_view_in_degrees_are_named_with_their_place() {
+        let xml = "<infograph version=\"1\" default-lang=\"en\">\n<node id=\"a\">\
+                   <view eye=\"0 0 1\" target=\"0 0 0\" up=\"0 1 0\" fov=\"70\"/>\n\
+                   <title>Caf&eacute;</title></node>\n</infograph>";
+        let e = InfoGraph::from_xml(xml).expect_err("an entity XML does not know");
+        assert!(e.to_string().contains("line 3: &eacute; is not an XML entity"), "{e}");
+        let (_, problems) = InfoGraph::from_xml(&xml.replace("&eacute;", "&#233;&amp;")).expect("readable");
+        let text: Vec<String> = problems.iter().map(ToString::to_string).collect();
+        let fov = "node 'a': view fov 70 radians is outside 1°–170° (0.017–2.967); 70 degrees would be 1.222; dropped";
+        assert!(text.iter().any(|t| t == fov), "{text:?}");
+    }
+
+    #[test]
+    fn language_codes_written_otherwise_are_read_or_said_and_a_second_text_is_said() {
+        let xml = r#"<infograph version="1" default-lang="en">
+  <node id="a"><view eye="0 0 1" target="0 0 0" up="0 1 0" fov="0.8"/>
+    <title lang="en">Bust</title><title>Bust (default)</title><title lang="IT">Busto</title>
+    <text lang="italiano">Un busto</text></node>
+</infograph>"#;
+        let (g, problems) = InfoGraph::from_xml(xml).expect("readable");
+        let text: Vec<String> = problems.iter().map(ToString::to_string).collect();
+        assert_eq!(g.nodes[0].title.get("en", "en"), Some("Bust"), "the first is kept");
+        assert_eq!(g.nodes[0].title.get("it", "en"), Some("Busto"), "IT read as it");
+        for said in [
+            "node 'a': title lang=\"IT\" read as \"it\"",
+            "node 'a': a second title for language 'en' (one without lang stands for 'en'); ignored",
+            "node 'a': text lang=\"italiano\" is not a language code (en, it, de-CH, …): no visitor sees it",
+        ] {
+            assert!(text.iter().any(|t| t == said), "{said}: {text:?}");
+        }
+    }
+
+    #[test]
+    fn an_element_a_node_holds_once_given_twice_keeps_the_first_and_the_story() {
+        let xml = r#"<infograph version="1" default-lang="en">
+  <node id="a"><view eye="0 0 1" target="0 0 0" up="0 1 0" fov="0.8"/>
+    <thumbnail lang="en" src="thumbs/a-en.png"/><thumbnail lang="it" src="thumbs/a-it.png"/>
+    <view eye="0 0 2" target="0 0 0" up="0 1 0" fov="0.8"/></node>
+  <node id="b"><view eye="0 0 3" target="0 0 0" up="0 1 0" fov="0.8"/></node>
+</infograph>"#;
+        let (g, problems) = InfoGraph::from_xml(xml).expect("the story stays");
+        let text: Vec<String> = problems.iter().map(ToString::to_string).collect();
+        assert_eq!(g.nodes.len(), 2, "{text:?}");
+        assert_eq!(g.nodes[0].view.eye, DVec3::new(0.0, 0.0, 1.0));
+        assert_eq!(g.nodes[0].thumbnail.as_deref(), Some("thumbs/a-en.png"));
+        for what in ["view", "thumbnail"] {
+            let said = format!("node 'a': 2 <{what}> elements; the first is kept, the others ignored");
+            assert!(text.contains(&said), "{said}: {text:?}");
+        }
     }
 }

@@ -90,6 +90,34 @@ fn wrapped(
     p.layout(text.to_string(), FontId::proportional(size), color, width)
 }
 
+/// `text` at the largest of `sizes` that fits `width` on one line, else at the smallest in at
+/// most `rows` rows of `width`, the rest cut with an ellipsis (a curator's title can be long).
+fn fitted(
+    p: &egui::Painter,
+    text: &str,
+    sizes: &[f32],
+    width: f32,
+    rows: usize,
+    color: Color32,
+) -> std::sync::Arc<egui::Galley> {
+    for &size in sizes {
+        let g = p.layout_no_wrap(text.to_string(), FontId::proportional(size), color);
+        if g.size().x <= width && g.rows.len() <= rows {
+            return g;
+        }
+    }
+    let size = sizes.last().copied().unwrap_or(20.0);
+    let mut job = egui::text::LayoutJob::simple(text.to_string(), FontId::proportional(size), color, width);
+    job.wrap.max_rows = rows;
+    job.wrap.overflow_character = Some('…');
+    p.layout_job(job)
+}
+
+/// The height of one row of text at `size`.
+fn row_height(p: &egui::Painter, size: f32) -> f32 {
+    p.layout_no_wrap("Ág".into(), FontId::proportional(size), Color32::WHITE).size().y
+}
+
 /// What both windows show while the exhibits load ([`super::preparing`]), or when none could be.
 pub struct PreparingView<'a> {
     /// The kiosk's languages: the words are said in each.
@@ -213,13 +241,17 @@ pub fn controller(ctx: &egui::Context, v: &ControllerView<'_>) {
                     p.rect_filled(area, 6.0, Color32::from_gray(40));
                 }
             }
-            p.text(
-                pos2(screen.center().x, screen.height() * 0.1),
-                Align2::CENTER_CENTER,
-                title,
-                FontId::proportional(40.0),
-                Color32::WHITE,
-            );
+            // Centred between the buttons beside it (the language switch), in at most two rows.
+            let half = buttons(v.mode)
+                .iter()
+                .filter(|b| b.rect[1] < 0.16)
+                .map(|b| if b.rect[0] >= 0.5 { b.rect[0] - 0.5 } else { 0.5 - b.rect[2] })
+                .fold(0.45, f64::min) as f32
+                * screen.width()
+                - 10.0;
+            let g = fitted(&p, title, &[40.0, 34.0, 28.0, 24.0], 2.0 * half, 2, Color32::WHITE);
+            let at = pos2(screen.center().x - g.size().x / 2.0, screen.height() * 0.1 - g.size().y / 2.0);
+            p.galley(at.max(pos2(0.0, 2.0)), g, Color32::WHITE);
             p.text(
                 pos2(screen.center().x, screen.height() * 0.77),
                 Align2::CENTER_CENTER,
@@ -286,15 +318,19 @@ pub fn controller(ctx: &egui::Context, v: &ControllerView<'_>) {
                 );
             }
             if let Some((title, text)) = v.caption {
-                let g = wrapped(&p, text, 22.0, screen.width() * 0.8, Color32::WHITE);
-                let top = screen.bottom() - g.size().y - 70.0;
+                // At most 6 rows: a long text must not cover the controller's buttons.
+                let g = fitted(&p, text, &[22.0], screen.width() * 0.8, 6, Color32::WHITE);
+                let t = fitted(&p, title, &[24.0], screen.width() * 0.8, 2, ACCENT);
+                let extra = (t.size().y - row_height(&p, 24.0)).max(0.0);
+                let top = screen.bottom() - g.size().y - 70.0 - extra;
                 let r = Rect::from_min_max(
                     pos2(screen.width() * 0.08, top),
                     pos2(screen.width() * 0.92, screen.bottom() - 12.0),
                 );
                 p.rect_filled(r, 8.0, PANEL);
-                p.text(r.min + vec2(16.0, 10.0), Align2::LEFT_TOP, title, FontId::proportional(24.0), ACCENT);
-                p.galley(r.min + vec2(16.0, 44.0), g, Color32::WHITE);
+                let below = r.min + vec2(16.0, 44.0 + extra);
+                p.galley(r.min + vec2(16.0, 10.0), t, ACCENT);
+                p.galley(below, g, Color32::WHITE);
             }
         }
         Mode::Attract => {
@@ -357,19 +393,18 @@ pub fn overlay(p: &egui::Painter, screen: Rect, t: &TextureHandle, alpha: f32) {
 /// A title and text panel at the bottom of the projection.
 pub fn caption(p: &egui::Painter, screen: Rect, title: &str, text: Option<&str>, alpha: f32) {
     let width = screen.width() * 0.6;
-    let g = text.map(|t| wrapped(p, t, 20.0, width, Color32::WHITE.gamma_multiply(alpha)));
-    let h = 54.0 + g.as_ref().map_or(0.0, |g| g.size().y + 8.0);
+    // At most 10 rows (a third of the wall): the model stays in view whatever a text's length.
+    let g = text.map(|t| fitted(p, t, &[20.0], width, 10, Color32::WHITE.gamma_multiply(alpha)));
+    let t = fitted(p, title, &[30.0], width, 2, ACCENT.gamma_multiply(alpha));
+    // What a title longer than one row adds to the panel.
+    let extra = (t.size().y - row_height(p, 30.0)).max(0.0);
+    let h = 54.0 + extra + g.as_ref().map_or(0.0, |g| g.size().y + 8.0);
     let r = Rect::from_min_size(pos2(24.0, screen.bottom() - h - 24.0), vec2(width + 32.0, h));
     p.rect_filled(r, 8.0, PANEL.gamma_multiply(alpha));
-    p.text(
-        r.min + vec2(16.0, 10.0),
-        Align2::LEFT_TOP,
-        title,
-        FontId::proportional(30.0),
-        ACCENT.gamma_multiply(alpha),
-    );
+    let below = r.min + vec2(16.0, 50.0 + extra);
+    p.galley(r.min + vec2(16.0, 10.0), t, ACCENT.gamma_multiply(alpha));
     if let Some(g) = g {
-        p.galley(r.min + vec2(16.0, 50.0), g, Color32::WHITE);
+        p.galley(below, g, Color32::WHITE);
     }
 }
 

@@ -306,6 +306,12 @@ impl App {
         let mut newly_closed = false;
         if self.closed.as_ref().is_none_or(|c| c.is_retrying()) {
             match self.loader.poll() {
+                // A session played or a soak run: a test, not a museum; it ends with the reason.
+                Some(Err(e)) if self.opts.session.is_some() || self.opts.run_for.is_some() => {
+                    self.error = Some(e);
+                    el.exit();
+                    return;
+                }
                 Some(Err(e)) => {
                     let closed = preparing::Closed::new(format!("{e:#}"), self.opts.config.retry_after_secs);
                     // Said (and drawn) once for as long as the reason stays the same: the kiosk
@@ -998,18 +1004,54 @@ impl Running<'_> {
         }
     }
 
+    /// The gallery card's picture: the thumbnail of the story's first view, else (no story, no
+    /// thumbnail, or one that cannot be used) a render of the start view, made once per device.
+    fn card_image(&mut self, ex: &Exhibit) -> Option<egui::TextureHandle> {
+        let first = ex.graph.as_ref().and_then(|g| g.nodes.first()?.thumbnail.as_ref());
+        if let Some(path) = first.and_then(|f| media(&mut self.reported, &ex.dir, f))
+            && let Some(image) = self.gfx.ctrl_painter.image(&path)
+        {
+            return Some(image);
+        }
+        // A key no file can have.
+        let key = ex.dir.join("#card");
+        if self.gfx.ctrl_painter.has_image(&key) {
+            return self.gfx.ctrl_painter.image(&key);
+        }
+        let size = (512, 288);
+        let camera = ex.start_camera(self.kiosk.settings.explore.fov_y);
+        let v = camera.view_params(&ex.store, size)?;
+        let mut cut = Cut::root(&ex.store);
+        cut.update(
+            &ex.store,
+            &v,
+            &CutParams { tolerance_px: 2.0, max_changes: usize::MAX, ..CutParams::default() },
+        );
+        let nodes = cut.visible_nodes(&ex.store, &v);
+        let settings = lit(self.render_settings, start_light(&camera));
+        let rendered =
+            self.gfx.renderer.render_image(&self.gfx.gpu, &ex.store, &nodes, &camera, size, &settings);
+        match rendered {
+            Ok((img, stats)) => {
+                if stats.corrupt > 0 {
+                    self.report_corrupt(ex);
+                }
+                Some(self.gfx.ctrl_painter.put_image(&key, &img))
+            }
+            Err(e) => {
+                self.report("card", &format!("{}: {e}", ex.dir.display()));
+                None
+            }
+        }
+    }
+
     fn render_controller(&mut self, exhibits: &[&Exhibit], t: f64) {
         let size = self.gfx.controller.canvas.size;
         let lang = self.kiosk.lang().to_string();
         let model = self.kiosk.model();
         let ex = exhibits.get(model);
         let title = ex.map(|e| e.title(&lang)).unwrap_or_default();
-        let thumb = ex.and_then(|e| {
-            let g = e.graph.as_ref()?;
-            let f = g.nodes.first()?.thumbnail.as_ref()?;
-            let path = media(&mut self.reported, &e.dir, f)?;
-            self.gfx.ctrl_painter.image(&path)
-        });
+        let thumb = ex.and_then(|e| self.card_image(e));
         let caption = self.kiosk.narrating().and_then(|(m, node)| {
             let g = exhibits.get(m)?.graph.as_ref()?;
             let n = g.nodes.get(node)?;

@@ -194,7 +194,9 @@ impl<B: AsRef<[u8]>> Store<B> {
     /// Opens a store, checking its header, index checksum and tree structure.
     pub fn open(bytes: B) -> Result<Self, StoreError> {
         let b = bytes.as_ref();
-        if b.len() >= 8 && b[..8] != MAGIC {
+        // Not a store, however short (a text file named .kstore): not "truncated".
+        let head = b.len().min(MAGIC.len());
+        if b[..head] != MAGIC[..head] {
             return Err(StoreError::BadMagic);
         }
         if b.len() < StoreHeader::LEN {
