@@ -111,11 +111,15 @@ pub fn check(dir: &Path, cache: &Path, full: bool) -> Checked {
         c.sound.push("no graph.xml: the model without a story".into());
         return c;
     }
-    let read = std::fs::read_to_string(&graph_file).map_err(|e| e.to_string());
-    let (graph, problems) = match read.and_then(|t| InfoGraph::from_xml(&t).map_err(|e| e.to_string())) {
+    let read = std::fs::read(&graph_file)
+        .map_err(|e| format!("{}: {e}", graph_file.display()))
+        .and_then(|b| exhibit::story_text(&graph_file, b).map_err(|e| format!("{e:#}")));
+    let parsed =
+        read.and_then(|t| InfoGraph::from_xml(&t).map_err(|e| format!("{}: {e}", graph_file.display())));
+    let (graph, problems) = match parsed {
         Ok(g) => g,
         Err(e) => {
-            let e = format!("{}: {e}; the kiosk shows the model without its story", graph_file.display());
+            let e = format!("{e}; the kiosk shows the model without its story");
             c.problems.push((true, e));
             return c;
         }

@@ -736,7 +736,7 @@ pub fn open_graph(
 /// A story file's text: UTF-8 (a byte-order mark allowed), and not empty; otherwise an error
 /// that says what the file is and what to do (an editor's "Unicode" is UTF-16, an old one's
 /// default Latin-1).
-fn story_text(path: &Path, bytes: Vec<u8>) -> anyhow::Result<String> {
+pub fn story_text(path: &Path, bytes: Vec<u8>) -> anyhow::Result<String> {
     if bytes.iter().all(u8::is_ascii_whitespace) {
         anyhow::bail!(
             "{}: the file is empty; a story is an <infograph> element (see content/*/graph.xml)",

@@ -481,10 +481,20 @@ fn fmt3(v: DVec3) -> String {
     format!("{} {} {}", v.x, v.y, v.z)
 }
 
+/// A language code as the kiosk matches it: trimmed, its language in lower case (`IT` → `it`),
+/// a region as written (`de-CH`).
+fn lang_code(l: &str) -> String {
+    let l = l.trim();
+    match l.split_once('-') {
+        Some((language, region)) => format!("{}-{region}", language.to_ascii_lowercase()),
+        None => l.to_ascii_lowercase(),
+    }
+}
+
 /// `what`'s items by language (one without a language stands for `default`), the first of each
 /// kept, and what to say of them: a code written in capitals or with spaces (`IT`) is read as
-/// the kiosk's (`it`), one that is no code at all (`""`, `italiano`) is shown to nobody, and a
-/// second item for a language is ignored.
+/// the kiosk's (`it`), one that is no code at all (`""`, `italiano`) is said (it shows only as a
+/// last resort), and a second item for a language is ignored.
 fn per_language(
     what: &str,
     items: impl Iterator<Item = (Option<String>, String)>,
@@ -495,7 +505,7 @@ fn per_language(
         let code = match l {
             None => default.to_string(),
             Some(l) => {
-                let code = l.trim().to_ascii_lowercase();
+                let code = lang_code(&l);
                 if code != l {
                     said.push(format!("{what} lang=\"{l}\" read as \"{code}\""));
                 }
@@ -506,7 +516,8 @@ fn per_language(
             code.split('-').all(|part| !part.is_empty() && part.chars().all(|c| c.is_ascii_alphanumeric()));
         if !letters || code.split('-').next().is_none_or(|first| !(2..=3).contains(&first.len())) {
             said.push(format!(
-                "{what} lang=\"{code}\" is not a language code (en, it, de-CH, …): no visitor sees it"
+                "{what} lang=\"{code}\" is not a language code (en, it, de-CH, …): shown only in a language \
+                 the node has no {what} for"
             ));
         }
         if out.contains_key(&code) {
@@ -580,7 +591,7 @@ impl InfoGraph {
         let mut bad = |node: Option<&str>, msg: String, dropped: bool| {
             problems.push(Problem { node: node.map(str::to_string), msg, dropped })
         };
-        let lang = raw.default_lang.clone();
+        let lang = lang_code(&raw.default_lang);
         let mut nodes: Vec<Node> = Vec::new();
         let mut seen = BTreeSet::new();
         for n in raw.nodes {
@@ -1457,16 +1468,19 @@ mod tests {
         let xml = r#"<infograph version="1" default-lang="en">
   <node id="a"><view eye="0 0 1" target="0 0 0" up="0 1 0" fov="0.8"/>
     <title lang="en">Bust</title><title>Bust (default)</title><title lang="IT">Busto</title>
-    <text lang="italiano">Un busto</text></node>
+    <text lang="italiano">Un busto</text><text lang="de-CH">Eine Büste</text></node>
 </infograph>"#;
         let (g, problems) = InfoGraph::from_xml(xml).expect("readable");
         let text: Vec<String> = problems.iter().map(ToString::to_string).collect();
         assert_eq!(g.nodes[0].title.get("en", "en"), Some("Bust"), "the first is kept");
         assert_eq!(g.nodes[0].title.get("it", "en"), Some("Busto"), "IT read as it");
+        assert_eq!(g.nodes[0].text.get("de-CH", "en"), Some("Eine Büste"), "a region as written");
+        assert!(!text.iter().any(|t| t.contains("lang=\"de-CH\"")), "{text:?}");
         for said in [
             "node 'a': title lang=\"IT\" read as \"it\"",
             "node 'a': a second title for language 'en' (one without lang stands for 'en'); ignored",
-            "node 'a': text lang=\"italiano\" is not a language code (en, it, de-CH, …): no visitor sees it",
+            "node 'a': text lang=\"italiano\" is not a language code (en, it, de-CH, …): shown only in a language \
+             the node has no text for",
         ] {
             assert!(text.iter().any(|t| t == said), "{said}: {text:?}");
         }

@@ -76,8 +76,9 @@ pub struct Config {
     pub attract_after_secs: f64,
     /// Seconds without a touch before the reset to the gallery.
     pub reset_after_secs: f64,
-    /// Seconds before the exhibits are tried again when none could be loaded (the content not
-    /// there yet, or every exhibit broken): meanwhile the windows say the exhibition is closed.
+    /// Seconds between two looks at the content when no exhibit could be loaded (the content not
+    /// there yet, or every exhibit broken): the windows say the exhibition is closed, and the
+    /// exhibits are tried again when the content changed. At most a day.
     pub retry_after_secs: f64,
     /// Languages offered; the first is the default.
     pub languages: Vec<String>,
@@ -187,9 +188,9 @@ impl Config {
                 self.attract_after_secs, self.reset_after_secs
             ));
         }
-        if !(self.retry_after_secs > 0.0 && self.retry_after_secs.is_finite()) {
+        if !(self.retry_after_secs > 0.0 && self.retry_after_secs <= 86_400.0) {
             return Err(format!(
-                "retry_after_secs = {}: must be a positive number of seconds",
+                "retry_after_secs = {}: must be a positive number of seconds, at most a day (86400)",
                 self.retry_after_secs
             ));
         }
@@ -310,7 +311,7 @@ mod tests {
         }
         let e = Config::parse("splats = \"fuzzy\"").expect_err("mode");
         assert!(e.contains("splats") && e.contains("blended, discs, points"), "{e}");
-        for secs in ["0", "-5", "inf", "nan"] {
+        for secs in ["0", "-5", "inf", "nan", "1e20"] {
             let e = Config::parse(&format!("retry_after_secs = {secs}")).expect_err("retry");
             assert!(e.contains("retry_after_secs"), "{e}");
         }

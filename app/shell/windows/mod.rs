@@ -112,7 +112,7 @@ pub fn run(opts: RunOptions) -> anyhow::Result<()> {
     }
     let event_loop = EventLoop::new().context("cannot open the display (is DISPLAY set?)")?;
     // The exhibits load while the windows say so.
-    let loader = preparing::Loader::spawn(opts.config.clone())?;
+    let loader = preparing::Loader::spawn(opts.config.clone(), opts.session.is_none())?;
     event_loop.set_control_flow(ControlFlow::Poll);
     let mut app = App {
         opts,
@@ -131,9 +131,9 @@ pub fn run(opts: RunOptions) -> anyhow::Result<()> {
     match app.state.as_mut() {
         // The visit in progress ends with the kiosk; its statistics are kept.
         Some(s) => s.persist(&app.exhibits, true),
+        None if app.error.is_some() => {}
         None if app.closed.is_some() => tracing::info!("closed with no exhibit to show"),
-        None if app.error.is_none() => tracing::info!("closed while preparing the exhibits"),
-        None => {}
+        None => tracing::info!("closed while preparing the exhibits"),
     }
     // An import under way (before the gallery, or behind it) stops with the process, without
     // its work directory; the next start imports again.
@@ -290,9 +290,15 @@ impl App {
         let Some(d) = self.display.as_mut() else { return };
         if let Some(c) = self.closed.as_mut()
             && c.due()
+            && preparing::content_fingerprint(&self.opts.config) == c.fingerprint()
         {
-            tracing::info!("trying the exhibits again");
-            match preparing::Loader::spawn(self.opts.config.clone()) {
+            c.wait_again();
+        }
+        if let Some(c) = self.closed.as_mut()
+            && c.due()
+        {
+            tracing::info!("the content changed: trying the exhibits again");
+            match preparing::Loader::spawn(self.opts.config.clone(), self.opts.session.is_none()) {
                 Ok(loader) => self.loader = loader,
                 Err(e) => {
                     self.error = Some(e);
@@ -313,14 +319,15 @@ impl App {
                     return;
                 }
                 Some(Err(e)) => {
-                    let closed = preparing::Closed::new(format!("{e:#}"), self.opts.config.retry_after_secs);
+                    let retry = self.opts.config.retry_after_secs;
+                    let closed = preparing::Closed::new(format!("{e:#}"), retry, self.loader.fingerprint);
                     // Said (and drawn) once for as long as the reason stays the same: the kiosk
                     // may wait for its content for days.
                     if self.closed_reason.as_deref() != Some(closed.reason()) {
                         tracing::error!(
-                            "{}: the exhibition is closed; the exhibits are tried again every {} s",
+                            "{}: the exhibition is closed; the exhibits are tried again when the content \
+                             changes (looked at every {retry} s)",
                             closed.reason(),
-                            self.opts.config.retry_after_secs
                         );
                         self.closed_reason = Some(closed.reason().to_string());
                         d.redraw = true;
@@ -589,19 +596,24 @@ impl ApplicationHandler for App {
             return;
         }
         let Some(s) = self.state.as_mut() else { return self.prepare(el) };
-        if let Some(more) = self.loader.more()
-            && !more.is_empty()
-        {
-            let names: Vec<String> = more.iter().map(|e| e.dir.display().to_string()).collect();
-            tracing::info!(
-                "imported behind the gallery: {}; they join it when nobody is at the kiosk",
-                names.join(", ")
-            );
-            self.joining.extend(more);
+        match self.loader.more() {
+            Some(more) if more.is_empty() => tracing::error!(
+                "no exhibit imported behind the gallery could be loaded (see above); the gallery stays as it is"
+            ),
+            Some(more) => {
+                let names: Vec<String> = more.iter().map(|e| e.dir.display().to_string()).collect();
+                tracing::info!(
+                    "imported behind the gallery: {}; they join it when nobody is at the kiosk",
+                    names.join(", ")
+                );
+                self.joining.extend(more);
+            }
+            None => {}
         }
         // Nobody at the kiosk: the gallery idle as long as the reset waits.
         if !self.joining.is_empty()
             && s.kiosk.mode() == Mode::Gallery
+            && s.kiosk.visit().is_none()
             && s.kiosk.idle_secs() >= s.kiosk.settings.reset_after_secs
         {
             self.exhibits.extend(self.joining.drain(..).map(leaked));
@@ -974,27 +986,8 @@ impl Running<'_> {
         if self.gfx.proj_painter.has_image(&key) {
             return self.gfx.proj_painter.image(&key);
         }
-        let size = (256, 144);
-        let img = n.view.view_params(&ex.store, size).and_then(|v| {
-            let mut cut = Cut::root(&ex.store);
-            cut.update(
-                &ex.store,
-                &v,
-                &CutParams { tolerance_px: 2.0, max_changes: usize::MAX, ..CutParams::default() },
-            );
-            let nodes = cut.visible_nodes(&ex.store, &v);
-            let start = start_light(&ex.start_camera(self.kiosk.settings.explore.fov_y));
-            let settings = lit(self.render_settings, node_light(n, start));
-            let (img, stats) = self
-                .gfx
-                .renderer
-                .render_image(&self.gfx.gpu, &ex.store, &nodes, &n.view, size, &settings)
-                .ok()?;
-            if stats.corrupt > 0 {
-                self.report_corrupt(ex);
-            }
-            Some(img)
-        });
+        let start = start_light(&ex.start_camera(self.kiosk.settings.explore.fov_y));
+        let img = self.still(ex, &n.view, node_light(n, start), (256, 144));
         match img {
             Some(img) => Some(self.gfx.proj_painter.put_image(&key, &img)),
             None => {
@@ -1018,8 +1011,31 @@ impl Running<'_> {
         if self.gfx.ctrl_painter.has_image(&key) {
             return self.gfx.ctrl_painter.image(&key);
         }
-        let size = (512, 288);
+        // One that could not be made is not tried again at every frame.
+        let failed = format!("#card {}", ex.dir.display());
+        if self.reported.contains(&failed) {
+            return None;
+        }
         let camera = ex.start_camera(self.kiosk.settings.explore.fov_y);
+        match self.still(ex, &camera, start_light(&camera), (512, 288)) {
+            Some(img) => Some(self.gfx.ctrl_painter.put_image(&key, &img)),
+            None => {
+                self.reported.insert(failed);
+                self.report("card", &format!("the start view of {}", ex.dir.display()));
+                None
+            }
+        }
+    }
+
+    /// `camera`'s view of `ex` at `size` in `light` (a thumbnail, the gallery card), on a cut
+    /// converged to 2 px; a corrupted node is reported and its ancestors drawn.
+    fn still(
+        &mut self,
+        ex: &Exhibit,
+        camera: &kiosk_core::camera::Camera,
+        light: Light,
+        size: (u32, u32),
+    ) -> Option<image::RgbaImage> {
         let v = camera.view_params(&ex.store, size)?;
         let mut cut = Cut::root(&ex.store);
         cut.update(
@@ -1028,21 +1044,13 @@ impl Running<'_> {
             &CutParams { tolerance_px: 2.0, max_changes: usize::MAX, ..CutParams::default() },
         );
         let nodes = cut.visible_nodes(&ex.store, &v);
-        let settings = lit(self.render_settings, start_light(&camera));
-        let rendered =
-            self.gfx.renderer.render_image(&self.gfx.gpu, &ex.store, &nodes, &camera, size, &settings);
-        match rendered {
-            Ok((img, stats)) => {
-                if stats.corrupt > 0 {
-                    self.report_corrupt(ex);
-                }
-                Some(self.gfx.ctrl_painter.put_image(&key, &img))
-            }
-            Err(e) => {
-                self.report("card", &format!("{}: {e}", ex.dir.display()));
-                None
-            }
+        let settings = lit(self.render_settings, light);
+        let (img, stats) =
+            self.gfx.renderer.render_image(&self.gfx.gpu, &ex.store, &nodes, camera, size, &settings).ok()?;
+        if stats.corrupt > 0 {
+            self.report_corrupt(ex);
         }
+        Some(img)
     }
 
     fn render_controller(&mut self, exhibits: &[&Exhibit], t: f64) {
@@ -1051,7 +1059,7 @@ impl Running<'_> {
         let model = self.kiosk.model();
         let ex = exhibits.get(model);
         let title = ex.map(|e| e.title(&lang)).unwrap_or_default();
-        let thumb = ex.and_then(|e| self.card_image(e));
+        let thumb = ex.filter(|_| self.kiosk.mode() == Mode::Gallery).and_then(|e| self.card_image(e));
         let caption = self.kiosk.narrating().and_then(|(m, node)| {
             let g = exhibits.get(m)?.graph.as_ref()?;
             let n = g.nodes.get(node)?;

@@ -21,10 +21,13 @@
 //! When no exhibit can be loaded (the content directory empty, missing or not mounted yet, every
 //! exhibit broken), the kiosk does not end: a service would restart it into the same failure, and
 //! the wall would show a desktop. The windows say the exhibition is closed, in each language, the
-//! controller's small print gives the reason and how often the kiosk tries again
-//! (`retry_after_secs`, a minute by default), and content that comes opens the gallery without a
-//! restart. The reason is logged as an error once for as long as it stays the same. Closed, the
-//! screen is drawn only when it changes: a kiosk may wait for its content for days.
+//! controller's small print gives the reason. The kiosk looks at the content every
+//! `retry_after_secs` (a minute by default) and tries the exhibits again when it changed
+//! ([`content_fingerprint`]), so content that comes opens the gallery without a restart and a
+//! broken scan is not imported again and again. The reason is logged as an error once for as
+//! long as it stays the same. Closed, the screen is drawn only when it changes: a kiosk may wait
+//! for its content for days. Content that comes in parts is taken as it is when the gallery
+//! opens; what is still missing then needs a restart.
 
 use super::config::Config;
 use super::exhibits::{Exhibit, Status, gallery_places, load_places};
@@ -47,14 +50,28 @@ pub(super) const SAY_PREPARING: f64 = 1.0;
 pub(super) struct Closed {
     reason: String,
     retry_secs: f64,
-    /// When they are tried again; `None` while they are.
+    /// When the content is looked at again; `None` while the exhibits are tried.
     retry_at: Option<Instant>,
+    /// What the content held when they were last tried ([`content_fingerprint`]).
+    fingerprint: u64,
 }
 
 impl Closed {
-    /// Closed for `reason`, the exhibits tried again in `retry_secs` seconds.
-    pub fn new(reason: String, retry_secs: f64) -> Self {
-        Self { reason, retry_secs, retry_at: Some(Instant::now() + Duration::from_secs_f64(retry_secs)) }
+    /// Closed for `reason` (the exhibits tried on content of `fingerprint`), the content looked
+    /// at again in `retry_secs` seconds.
+    pub fn new(reason: String, retry_secs: f64, fingerprint: u64) -> Self {
+        let retry_at = Some(Instant::now() + Duration::from_secs_f64(retry_secs));
+        Self { reason, retry_secs, retry_at, fingerprint }
+    }
+
+    /// The content is looked at again in `retry_secs`, nothing having changed.
+    pub fn wait_again(&mut self) {
+        self.retry_at = Some(Instant::now() + Duration::from_secs_f64(self.retry_secs));
+    }
+
+    /// What the content held when the exhibits were last tried.
+    pub fn fingerprint(&self) -> u64 {
+        self.fingerprint
     }
 
     pub fn reason(&self) -> &str {
@@ -77,8 +94,38 @@ impl Closed {
 
     /// The controller's small print: the reason and how often the kiosk tries again.
     pub fn detail(&self) -> String {
-        format!("{}\nthe exhibits are tried again every {} s", self.reason, self.retry_secs)
+        format!(
+            "{}\nthe exhibits are tried again when the content changes (looked at every {} s)",
+            self.reason, self.retry_secs
+        )
     }
+}
+
+/// What the content directory holds, as a number: the name, size and modification time of each
+/// entry and of each entry of its sub-directories (the exhibits' files), or that it cannot be
+/// read. The exhibits are tried again only when it changes: a scan whose import fails after
+/// minutes is not imported again every minute, nor its error logged again.
+pub(super) fn content_fingerprint(config: &Config) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    let entries = |dir: &std::path::Path| -> Vec<std::fs::DirEntry> {
+        let mut v: Vec<_> = std::fs::read_dir(dir).map(|r| r.flatten().collect()).unwrap_or_default();
+        v.sort_by_key(std::fs::DirEntry::file_name);
+        v
+    };
+    config.content.is_dir().hash(&mut h);
+    for e in entries(&config.content) {
+        e.file_name().hash(&mut h);
+        let is_dir = e.file_type().is_ok_and(|t| t.is_dir());
+        for f in if is_dir { entries(&e.path()) } else { vec![e] } {
+            f.file_name().hash(&mut h);
+            if let Ok(m) = f.metadata() {
+                m.len().hash(&mut h);
+                m.modified().ok().hash(&mut h);
+            }
+        }
+    }
+    h.finish()
 }
 
 /// What the loading thread says.
@@ -104,19 +151,25 @@ pub(super) struct Loader {
     rx: Option<mpsc::Receiver<Message>>,
     /// Whether it gave the gallery's exhibits.
     opened: bool,
+    /// How many exhibits it is importing behind the gallery.
+    waiting: usize,
     /// Exhibit i (from 0) of n loading.
     exhibit: Option<(usize, usize)>,
     /// The last line its import logged.
     line: String,
     since: Instant,
+    /// What the content held when it started ([`content_fingerprint`]).
+    pub fingerprint: u64,
 }
 
 impl Loader {
     /// Starts loading the exhibits of `config` on a thread of their own: those that open at
     /// once (stores, scans cached and up to date) first. When some do and others must be
-    /// imported, the gallery opens with the first and the others follow ([`Loader::more`]);
-    /// otherwise they all come together.
-    pub fn spawn(config: Config) -> anyhow::Result<Self> {
+    /// imported, the gallery opens with the first and the others follow ([`Loader::more`]),
+    /// if `split`; otherwise they all come together (a played session or a soak run needs the
+    /// whole gallery from its start).
+    pub fn spawn(config: Config, split: bool) -> anyhow::Result<Self> {
+        let fingerprint = content_fingerprint(&config);
         let (tx, rx) = mpsc::channel();
         std::thread::Builder::new().name("exhibits".into()).spawn(move || {
             let mut status = |s: Status| drop(tx.send(Message::Status(s)));
@@ -126,7 +179,7 @@ impl Loader {
             };
             let n = places.len();
             let (mut ready, waiting) = load_places(places, n, false, &mut status);
-            if ready.is_empty() || waiting.is_empty() {
+            if !split || ready.is_empty() || waiting.is_empty() {
                 let (more, _) = load_places(waiting, n, true, &mut status);
                 ready.extend(more);
                 ready.sort_by_key(|e| e.place);
@@ -142,7 +195,15 @@ impl Loader {
             let (more, _) = load_places(waiting, n, true, &mut status);
             drop(tx.send(Message::More(more)));
         })?;
-        Ok(Self { rx: Some(rx), opened: false, exhibit: None, line: String::new(), since: Instant::now() })
+        Ok(Self {
+            rx: Some(rx),
+            opened: false,
+            waiting: 0,
+            exhibit: None,
+            line: String::new(),
+            since: Instant::now(),
+            fingerprint,
+        })
     }
 
     /// Takes in what the thread said: the gallery's exhibits (or why none loads) once they are
@@ -154,6 +215,7 @@ impl Loader {
         match self.next()? {
             Ok(Message::Gallery(gallery)) => {
                 self.opened = true;
+                self.waiting = gallery.as_ref().map_or(0, |g| g.waiting);
                 Some(gallery)
             }
             Ok(_) => None,
@@ -171,7 +233,16 @@ impl Loader {
                 self.rx = None;
                 Some(more)
             }
-            Ok(_) | Err(()) => None,
+            Ok(_) => None,
+            // Done, with nothing behind the gallery: nothing to say.
+            Err(()) if self.waiting == 0 => None,
+            Err(()) => {
+                tracing::error!(
+                    "the import of the exhibits behind the gallery ended without a word; they are not shown \
+                     until the kiosk starts again"
+                );
+                None
+            }
         }
     }
 
