@@ -111,9 +111,7 @@ pub fn check(dir: &Path, cache: &Path, full: bool) -> Checked {
         c.sound.push("no graph.xml: the model without a story".into());
         return c;
     }
-    let read = std::fs::read(&graph_file)
-        .map_err(|e| format!("{}: {e}", graph_file.display()))
-        .and_then(|b| exhibit::story_text(&graph_file, b).map_err(|e| format!("{e:#}")));
+    let read = exhibit::read_story(&graph_file).map_err(|e| format!("{e:#}"));
     let parsed =
         read.and_then(|t| InfoGraph::from_xml(&t).map_err(|e| format!("{}: {e}", graph_file.display())));
     let (graph, problems) = match parsed {

@@ -28,6 +28,13 @@ fn modified_nanos(meta: &std::fs::Metadata) -> Option<u128> {
     Some(meta.modified().ok()?.duration_since(std::time::UNIX_EPOCH).ok()?.as_nanos())
 }
 
+/// Whether `p` names a scan an exhibit can show (not a hidden file: `._bust.obj`, left by macOS
+/// on a USB stick, is not a model).
+fn is_scan(p: &Path) -> bool {
+    let name = lower_name(p);
+    !name.starts_with('.') && SCANS.iter().any(|e| name.ends_with(e))
+}
+
 /// Finds the model of an exhibit directory: its store if it has one (a store beside the scan it
 /// was made from comes first), else its scan. Two stores, or two scans and no store, are an error
 /// that names them: the kiosk would not know which to show.
@@ -41,8 +48,7 @@ pub fn model_file(dir: &Path) -> anyhow::Result<PathBuf> {
     // Hidden files (`._bust.obj`, left by macOS on a USB stick) are not models.
     let entries: Vec<&PathBuf> = entries.iter().filter(|p| !name(p).starts_with('.')).collect();
     let stores: Vec<&PathBuf> = entries.iter().copied().filter(|p| name(p).ends_with(".kstore")).collect();
-    let scans: Vec<&PathBuf> =
-        entries.iter().copied().filter(|p| SCANS.iter().any(|e| name(p).ends_with(e))).collect();
+    let scans: Vec<&PathBuf> = entries.iter().copied().filter(|p| is_scan(p)).collect();
     let (found, what) = if stores.is_empty() { (scans, "scans") } else { (stores, "stores") };
     match found[..] {
         [one] => Ok(one.clone()),
@@ -67,7 +73,7 @@ fn stale_store(dir: &Path, store: &Path) -> Vec<String> {
     let Ok(entries) = std::fs::read_dir(dir) else { return Vec::new() };
     let mut newer: Vec<String> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| SCANS.iter().any(|e| lower_name(p).ends_with(e)) && !lower_name(p).starts_with('.'))
+        .filter(|p| is_scan(p))
         .filter(|p| modified(p).is_some_and(|m| m > made))
         .map(|p| file_name(&p))
         .collect();
@@ -723,8 +729,7 @@ pub fn open_graph(
     if !path.exists() {
         return Ok(None);
     }
-    let bytes = std::fs::read(&path).with_context(|| format!("cannot read {}", path.display()))?;
-    let text = story_text(&path, bytes)?;
+    let text = read_story(&path)?;
     let (graph, mut problems) =
         kiosk_core::graph::InfoGraph::from_xml(&text).with_context(|| format!("{}", path.display()))?;
     problems.extend(graph.check_files(VIEW_ASPECT, &|p: &str| probe_media(dir, p)));
@@ -736,7 +741,8 @@ pub fn open_graph(
 /// A story file's text: UTF-8 (a byte-order mark allowed), and not empty; otherwise an error
 /// that says what the file is and what to do (an editor's "Unicode" is UTF-16, an old one's
 /// default Latin-1).
-pub fn story_text(path: &Path, bytes: Vec<u8>) -> anyhow::Result<String> {
+pub fn read_story(path: &Path) -> anyhow::Result<String> {
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
     if bytes.iter().all(u8::is_ascii_whitespace) {
         anyhow::bail!(
             "{}: the file is empty; a story is an <infograph> element (see content/*/graph.xml)",

@@ -290,13 +290,11 @@ impl App {
         let Some(d) = self.display.as_mut() else { return };
         if let Some(c) = self.closed.as_mut()
             && c.due()
-            && preparing::content_fingerprint(&self.opts.config) == c.fingerprint()
         {
-            c.wait_again();
-        }
-        if let Some(c) = self.closed.as_mut()
-            && c.due()
-        {
+            if preparing::content_fingerprint(&self.opts.config) == c.fingerprint() {
+                c.wait_again();
+                return;
+            }
             tracing::info!("the content changed: trying the exhibits again");
             match preparing::Loader::spawn(self.opts.config.clone(), self.opts.session.is_none()) {
                 Ok(loader) => self.loader = loader,
