@@ -144,6 +144,14 @@ enum Command {
         #[arg(long, default_value_t = kiosk_import::BuildParams::default().spacing_stride as u32,
               value_parser = clap::value_parser!(u32).range(1..=16))]
         spacing_stride: u32,
+        /// Speed against accuracy of the normals: samples without a normal (bare point clouds)
+        /// search their nearest neighbours one in N per group of 8–15 neighbouring samples; the
+        /// others take the normal and spacing of the nearest that did (1: every sample, exact;
+        /// 2 estimates about 1.6 times faster and loses detail in fine carving: figures in
+        /// docs/performance.md).
+        #[arg(long, default_value_t = kiosk_import::BuildParams::default().normal_stride as u32,
+              value_parser = clap::value_parser!(u32).range(1..=16))]
+        normal_stride: u32,
         /// Skip samples with NaN/∞ coordinates instead of failing.
         #[arg(long)]
         drop_invalid: bool,
@@ -276,6 +284,7 @@ fn main() -> anyhow::Result<()> {
             output,
             node_points,
             spacing_stride,
+            normal_stride,
             drop_invalid,
             texel_density,
             vertices_only,
@@ -287,6 +296,7 @@ fn main() -> anyhow::Result<()> {
             opts.read.fill_plain_meshes = !vertices_only;
             opts.build.node_points = node_points as usize;
             opts.build.spacing_stride = spacing_stride as usize;
+            opts.build.normal_stride = normal_stride as usize;
             opts.read.drop_invalid = drop_invalid;
             let mut bar = terminal::ImportBar::new(!quiet);
             let report =

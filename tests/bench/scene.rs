@@ -44,7 +44,8 @@ fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if let Some(i) = args.iter().position(|a| a == "--child-build") {
         let stride = args.get(i + 4).map_or(Ok(BuildParams::default().spacing_stride), |s| s.parse())?;
-        return child_build(&args[i + 1], args[i + 2].parse()?, &args[i + 3], stride);
+        let normal = args.get(i + 5).map_or(Ok(BuildParams::default().normal_stride), |s| s.parse())?;
+        return child_build(&args[i + 1], args[i + 2].parse()?, &args[i + 3], stride, normal);
     }
     if let Some(i) = args.iter().position(|a| a == "--queries-only") {
         // Side by side on existing stores (e.g. built by two versions of the builder).
@@ -92,6 +93,16 @@ fn main() -> anyhow::Result<()> {
             .and_then(|i| args.get(i + 1))
             .map_or(Ok(2_000_000), |s| s.parse())?;
         return survey::estimation(n);
+    }
+    if args.iter().any(|a| a == "--normal-stride-only") {
+        let n = args
+            .iter()
+            .position(|a| a == "--points")
+            .and_then(|i| args.get(i + 1))
+            .map_or(Ok(2_000_000), |s| s.parse())?;
+        let out_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench");
+        std::fs::create_dir_all(&out_dir)?;
+        return survey::normal_tradeoff(n, &real_scan(), &out_dir);
     }
     if args.iter().any(|a| a == "--tradeoff-only") {
         let out_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench");
@@ -414,9 +425,15 @@ fn write_synthetic_ply(n: u64, path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn child_build(input: &str, m: usize, out: &str, spacing_stride: usize) -> anyhow::Result<()> {
+fn child_build(
+    input: &str,
+    m: usize,
+    out: &str,
+    spacing_stride: usize,
+    normal_stride: usize,
+) -> anyhow::Result<()> {
     let out = Path::new(out);
-    let params = BuildParams { node_points: m, spacing_stride, ..BuildParams::default() };
+    let params = BuildParams { node_points: m, spacing_stride, normal_stride, ..BuildParams::default() };
     let tmp = out.parent().unwrap_or(Path::new("."));
     let (path, label, generated) = match input.strip_prefix("synthetic:") {
         Some(n) => {
@@ -435,6 +452,11 @@ fn child_build(input: &str, m: usize, out: &str, spacing_stride: usize) -> anyho
         label
     } else {
         format!("{label}, spacing stride {spacing_stride}")
+    };
+    let label = if normal_stride == BuildParams::default().normal_stride {
+        label
+    } else {
+        format!("{label}, normal stride {normal_stride}")
     };
     // Before the clock: replacing a store deletes the old one in the final rename, which on this
     // `discard`-mounted disk takes ~20 ms for the dragon's 24 MB; deleting is not building.
@@ -803,8 +825,15 @@ fn spacing_tradeoff(scan: &[InputPoint], quick: bool) {
         let boxes = estimate::sorted_tree(&mut pts);
         let spacings = |k: usize, stride: usize| {
             let t = Instant::now();
-            let e =
-                estimate::estimate(&pts, &boxes, k, stride, &|_| false, &|_| true).expect("distinct points");
+            let e = estimate::estimate(
+                &pts,
+                &boxes,
+                k,
+                estimate::Strides { normal: 1, spacing: stride },
+                &|_| false,
+                &|_| true,
+            )
+            .expect("distinct points");
             (t.elapsed().as_secs_f64(), e.into_iter().map(|e| f64::from(e.spacing)).collect::<Vec<_>>())
         };
         let (_, reference) = spacings(32, 1);

@@ -334,7 +334,9 @@ pub fn estimation(n: u64) -> anyhow::Result<()> {
             }
         });
     };
-    let ours = || estimate::estimate(&pos, &boxes, k, 1, &|_| true, &|_| true).expect("points");
+    let ours = || {
+        estimate::estimate(&pos, &boxes, k, estimate::Strides::EXACT, &|_| true, &|_| true).expect("points")
+    };
     let mut ours_run = || Ok(std::hint::black_box(ours()).len() as u64);
     let mut search_run = || {
         let sum = std::sync::atomic::AtomicU64::new(0);
@@ -389,5 +391,180 @@ pub fn estimation(n: u64) -> anyhow::Result<()> {
         at(0.999),
         at(1.0)
     );
+    Ok(())
+}
+
+/// The normal stride of the estimation (`BuildParams::normal_stride`) against its time and the
+/// error of the normals and spacings, on three clouds whose normals are estimated from their
+/// positions alone:
+/// - `n` points of the survey cloud, whose true normals are its sphere's radial directions (its
+///   noise of ±2 mm is a tenth of the spacing at 5 M points);
+/// - the dragon's vertices, against the mesh's area-weighted vertex normals (fine carving: the
+///   curvature radius is a few spacings in places);
+/// - a raw range scan of the bunny (Cyberware, scanner noise), against the normal of the nearest
+///   vertex of the reconstructed bunny (in the same frame).
+///
+/// Each stride's normals are compared with that reference and with the exact estimate (stride
+/// 1); the error is the unoriented angle. Writes `normal-stride.svg` into `dir`.
+pub fn normal_tradeoff(n: u64, dragon: &Path, dir: &Path) -> anyhow::Result<()> {
+    let survey = {
+        let pts = cloud(n);
+        let origin = DVec3::from(pts[0].pos());
+        let centre = (DVec3::new(20.0, 20.0, 50.0) + DVec3::from(OFFSET) - origin).as_vec3();
+        pts.iter()
+            .map(|p| {
+                let local = (DVec3::from(p.pos()) - origin).as_vec3();
+                (local, (local - centre).normalize())
+            })
+            .collect::<Vec<_>>()
+    };
+    let local = |pts: &[InputPoint]| {
+        let c = pts.iter().fold(DVec3::ZERO, |a, p| a + p.pos) / pts.len() as f64;
+        move |p: DVec3| (p - c).as_vec3()
+    };
+    let dragon = {
+        let (pts, _) = formats::read_all(dragon, &ReadOptions::default())?;
+        let to = local(&pts);
+        pts.iter().map(|p| (to(p.pos), p.normal)).collect::<Vec<_>>()
+    };
+    let bunny = {
+        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/scans/stanford-bunny");
+        let (range, _) = formats::read_all(&data.join("range-scans/bun000.ply"), &ReadOptions::default())?;
+        let (mesh, _) = formats::read_all(&data.join("bun_zipper.ply"), &ReadOptions::default())?;
+        // bun.conf places bun000 at the identity: both are in the same frame.
+        let to = local(&mesh);
+        let arrays: Vec<[f32; 3]> = mesh.iter().map(|p| to(p.pos).to_array()).collect();
+        let tree: kiddo::immutable::float::kdtree::ImmutableKdTree<f32, u32, 3, 32> =
+            kiddo::immutable::float::kdtree::ImmutableKdTree::new_from_slice(&arrays);
+        range
+            .iter()
+            .map(|p| {
+                let q = to(p.pos);
+                let nearest = tree.nearest_one::<kiddo::SquaredEuclidean>(&q.to_array());
+                (q, mesh[nearest.item as usize].normal)
+            })
+            .collect::<Vec<_>>()
+    };
+    let k = kiosk_import::BuildParams::default().knn;
+    let default = kiosk_import::BuildParams::default().normal_stride;
+    println!(
+        "\n## Speed against accuracy: normal stride (clouds without normals, k = {k}; estimation alone, fastest of 3)"
+    );
+    println!(
+        "| input | stride | estimate s | normal error vs reference: median ° | p90 ° | p99 ° | vs stride 1: median ° | p99 ° | spacing vs stride 1: median | p95 |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    let mut series = Vec::new();
+    for (name, cloud) in [("survey sphere", survey), ("dragon", dragon), ("bunny range scan", bunny)] {
+        let rows = normal_stride_rows(name, cloud, k, default);
+        series.push((name, rows));
+    }
+    plot_normal_tradeoff(&dir.join("normal-stride.svg"), &series)
+}
+
+/// A stride, its estimation seconds, and the median and 99th percentile of its normals' error.
+type StrideRow = (usize, f64, f64, f64);
+
+/// [`normal_tradeoff`]'s rows for one cloud of (position, reference normal); returns, for each
+/// stride, its row.
+fn normal_stride_rows(
+    name: &str,
+    mut cloud: Vec<(glam::Vec3, glam::Vec3)>,
+    k: usize,
+    default: usize,
+) -> Vec<StrideRow> {
+    use kiosk_import::estimate::{self, Strides};
+    let bits = |p: &glam::Vec3| p.to_array().map(f32::to_bits);
+    // Duplicates are merged, as the builder merges them.
+    cloud.sort_by_key(|a| bits(&a.0));
+    cloud.dedup_by(|a, b| a.0 == b.0);
+    let reference: std::collections::HashMap<[u32; 3], glam::Vec3> =
+        cloud.iter().map(|(p, n)| (bits(p), *n)).collect();
+    let mut pos: Vec<glam::Vec3> = cloud.iter().map(|c| c.0).collect();
+    let boxes = estimate::sorted_tree(&mut pos);
+    let run = |stride: usize| {
+        let strides = Strides { normal: stride, spacing: 1 };
+        let mut best = f64::INFINITY;
+        let mut out = Vec::new();
+        for _ in 0..3 {
+            let t = Instant::now();
+            out = estimate::estimate(&pos, &boxes, k, strides, &|_| true, &|_| true).expect("points");
+            best = best.min(t.elapsed().as_secs_f64());
+        }
+        (best, out)
+    };
+    let pct = |mut v: Vec<f64>, q: f64| {
+        v.sort_by(f64::total_cmp);
+        v[((v.len() - 1) as f64 * q) as usize]
+    };
+    // Unoriented, and exact near 0° (unlike the arc cosine of the dot product).
+    let angle =
+        |a: glam::Vec3, b: glam::Vec3| f64::from(a.cross(b).length().atan2(a.dot(b).abs()).to_degrees());
+    let (_, exact) = run(1);
+    let mut points = Vec::new();
+    for stride in [1usize, 2, 3, 4, 8] {
+        let (secs, est) = run(stride);
+        let truth: Vec<f64> = pos
+            .iter()
+            .zip(&est)
+            .filter_map(|(p, e)| {
+                reference.get(&bits(p)).filter(|n| **n != glam::Vec3::ZERO).map(|n| angle(e.normal, *n))
+            })
+            .collect();
+        let vs_exact: Vec<f64> = est.iter().zip(&exact).map(|(a, b)| angle(a.normal, b.normal)).collect();
+        let spacing: Vec<f64> =
+            est.iter().zip(&exact).map(|(a, b)| f64::from((a.spacing / b.spacing - 1.0).abs())).collect();
+        let mark = if stride == default { " (default)" } else { "" };
+        println!(
+            "| {name} ({} points) | {stride}{mark} | {secs:.3} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.3} | {:.3} |",
+            pos.len(),
+            pct(truth.clone(), 0.5),
+            pct(truth.clone(), 0.9),
+            pct(truth.clone(), 0.99),
+            pct(vs_exact.clone(), 0.5),
+            pct(vs_exact, 0.99),
+            pct(spacing.clone(), 0.5),
+            pct(spacing, 0.95),
+        );
+        points.push((stride, secs, pct(truth.clone(), 0.5), pct(truth, 0.99)));
+    }
+    points
+}
+
+fn plot_normal_tradeoff(path: &Path, series: &[(&str, Vec<StrideRow>)]) -> anyhow::Result<()> {
+    use plotters::prelude::*;
+    let root = SVGBackend::new(path, (900, 600)).into_drawing_area();
+    root.fill(&WHITE)?;
+    // Time relative to each cloud's exact estimation, so that the clouds share an axis.
+    let rel = |rows: &[StrideRow], r: &StrideRow| r.1 / rows[0].1;
+    let ymax = series.iter().flat_map(|(_, rows)| rows.iter().map(|r| r.3)).fold(0.0, f64::max) * 1.15;
+    let mut chart = ChartBuilder::on(&root)
+        .caption("Normal stride: estimation time against normal error", ("sans-serif", 20))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..1.1, 0.0..ymax)?;
+    chart
+        .configure_mesh()
+        .x_desc("estimation time / exact (stride 1)")
+        .y_desc("angle to the reference normal, ° (median ●, 99th percentile ▲)")
+        .draw()?;
+    for (i, (name, rows)) in series.iter().enumerate() {
+        let colour = Palette99::pick(i).to_rgba();
+        chart
+            .draw_series(LineSeries::new(rows.iter().map(|r| (rel(rows, r), r.2)), colour))?
+            .label(*name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+        chart.draw_series(LineSeries::new(rows.iter().map(|r| (rel(rows, r), r.3)), colour))?;
+        chart.draw_series(rows.iter().map(|r| {
+            EmptyElement::at((rel(rows, r), r.2))
+                + Circle::new((0, 0), 4, colour.filled())
+                + Text::new(format!("{}", r.0), (5, -15), ("sans-serif", 12))
+        }))?;
+        chart
+            .draw_series(rows.iter().map(|r| TriangleMarker::new((rel(rows, r), r.3), 5, colour.filled())))?;
+    }
+    chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw()?;
+    root.present()?;
     Ok(())
 }

@@ -82,40 +82,53 @@ fn corrupted_node_data_is_found_by_verification() {
 
 #[test]
 fn import_takes_a_spacing_stride_and_refuses_one_out_of_range() {
+    // A range scan with normals and no faces: every spacing is estimated (a mesh brings its own
+    // from its faces, and the stride has nothing to do).
+    import_takes_a_stride("--spacing-stride", "bun045.open3d_pcd_normals_binary.ply", |s| s.radius);
+}
+
+#[test]
+fn import_takes_a_normal_stride_and_refuses_one_out_of_range() {
+    // The same scan without normals (a range grid, no faces): every normal is estimated.
+    import_takes_a_stride("--normal-stride", "bun045.pcl_pcd2ply_binary_rangegrid.ply", |s| s.normal().x);
+}
+
+/// Imports a tool export of the corpus with `flag` at 1 and 8: the same samples in the same
+/// order, `what` of many of them shared from a neighbour at 8, none lost; 0 and 17 are refused
+/// with a message that names the flag, and no store is left.
+fn import_takes_a_stride(flag: &str, file: &str, what: fn(&kiosk_core::scene::splat::Splat) -> f32) {
     let dir = tempfile::tempdir().expect("temp dir");
     let scan = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        // A range scan with normals and no faces: every spacing is estimated (a mesh brings
-        // its own from its faces, and the stride has nothing to do).
-        .join("tests/data/ply-corpus/tool-exports/bun045.open3d_pcd_normals_binary.ply");
+        .join("tests/data/ply-corpus/tool-exports")
+        .join(file);
     let import = |stride: &str, out: &str| {
         std::process::Command::new(env!("CARGO_BIN_EXE_kiosk"))
-            .args(["import", "--quiet", "--spacing-stride", stride])
+            .args(["import", "--quiet", flag, stride])
             .arg(&scan)
             .arg("-o")
             .arg(dir.path().join(out))
             .output()
             .expect("run kiosk")
     };
-    let mut radii = Vec::new();
+    let mut values = Vec::new();
     for stride in ["1", "8"] {
         let o = import(stride, &format!("s{stride}.kstore"));
-        assert!(o.status.success(), "stride {stride}: {}", String::from_utf8_lossy(&o.stderr));
+        assert!(o.status.success(), "{flag} {stride}: {}", String::from_utf8_lossy(&o.stderr));
         let store = kiosk_content::open_store(&dir.path().join(format!("s{stride}.kstore"))).expect("store");
         let leaves: Vec<f32> = (0..store.nodes().len() as u32)
             .filter(|&id| store.node(id).is_leaf())
-            .flat_map(|id| store.splats(id).iter().map(|s| s.radius).collect::<Vec<_>>())
+            .flat_map(|id| store.splats(id).iter().map(what).collect::<Vec<_>>())
             .collect();
-        radii.push(leaves);
+        assert!(leaves.iter().all(|r| r.is_finite()), "{flag} {stride}");
+        values.push(leaves);
     }
-    // Same samples in the same order; some radii shared from a neighbour, none lost.
-    assert_eq!(radii[0].len(), radii[1].len());
-    let differ = radii[0].iter().zip(&radii[1]).filter(|(a, b)| a != b).count();
-    assert!(differ > radii[0].len() / 4, "only {differ} of {} radii differ", radii[0].len());
-    assert!(radii[1].iter().all(|r| r.is_finite() && *r > 0.0));
+    assert_eq!(values[0].len(), values[1].len(), "{flag}");
+    let differ = values[0].iter().zip(&values[1]).filter(|(a, b)| a != b).count();
+    assert!(differ > values[0].len() / 4, "{flag}: only {differ} of {} differ", values[0].len());
     for bad in ["0", "17"] {
         let o = import(bad, "bad.kstore");
         let err = String::from_utf8_lossy(&o.stderr);
-        assert!(!o.status.success() && err.contains("spacing-stride"), "stride {bad}: {err}");
+        assert!(!o.status.success() && err.contains(&flag[2..]), "{flag} {bad}: {err}");
         assert!(!dir.path().join("bad.kstore").exists());
     }
 }

@@ -155,6 +155,22 @@ pub struct Estimate {
     pub spacing: f32,
 }
 
+/// How many points of each leaf search their neighbours (see [`estimate`]): one in `normal` of
+/// a leaf where some point needs a normal, one in `spacing` of a leaf where points need only a
+/// spacing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Strides {
+    /// Stride where a normal is needed.
+    pub normal: usize,
+    /// Stride where only spacings are.
+    pub spacing: usize,
+}
+
+impl Strides {
+    /// Every point searches.
+    pub const EXACT: Self = Self { normal: 1, spacing: 1 };
+}
+
 /// Most neighbours [`estimate`] can use.
 pub const MAX_K: usize = 32;
 
@@ -180,7 +196,7 @@ pub fn estimate(
     positions: &[Vec3],
     boxes: &[kiosk_core::Aabb],
     k: usize,
-    stride: usize,
+    strides: Strides,
     need_normal: &(dyn Fn(usize) -> bool + Sync),
     need_spacing: &(dyn Fn(usize) -> bool + Sync),
 ) -> Option<Vec<Estimate>> {
@@ -192,7 +208,8 @@ pub fn estimate(
     let centroid = positions.iter().fold(Vec3::ZERO, |a, p| a + *p) / positions.len() as f32;
     let soa = Soa::new(positions);
     let search = LeafSearch { positions, soa: &soa, boxes, k: k + 1 };
-    let job = Job { search, centroid, need_normal, need_spacing, stride: stride.max(1) };
+    let strides = Strides { normal: strides.normal.max(1), spacing: strides.spacing.max(1) };
+    let job = Job { search, centroid, need_normal, need_spacing, strides };
     let mut out = Vec::new();
     out.par_extend(rayon::iter::repeat_n(Estimate { normal: Vec3::ZERO, spacing: 0.0 }, positions.len()));
     let root = PathStep::root(positions.len());
@@ -208,7 +225,7 @@ struct Job<'a> {
     centroid: Vec3,
     need_normal: &'a (dyn Fn(usize) -> bool + Sync),
     need_spacing: &'a (dyn Fn(usize) -> bool + Sync),
-    stride: usize,
+    strides: Strides,
 }
 
 impl Job<'_> {
@@ -221,20 +238,23 @@ impl Job<'_> {
             let mask = |need: &dyn Fn(usize) -> bool| {
                 (step.lo..step.hi).enumerate().fold(0u32, |m, (i, idx)| m | u32::from(need(idx)) << i)
             };
-            let normals = mask(self.need_normal);
-            if normals == 0 && mask(self.need_spacing) == 0 {
+            let normals = mask(self.need_normal) != 0;
+            if !normals && mask(self.need_spacing) == 0 {
                 path.pop();
                 return;
             }
-            let searched = (0..best.len()).step_by(self.stride).fold(normals, |m, i| m | 1 << i);
-            self.search.leaf(path, searched, normals, scratch, best);
+            // A leaf where some point needs a normal searches with the normal stride, and every
+            // point that searches there gets a normal.
+            let stride = if normals { self.strides.normal } else { self.strides.spacing };
+            let searched = (0..best.len()).step_by(stride).fold(0u32, |m, i| m | 1 << i);
+            self.search.leaf(path, searched, if normals { searched } else { 0 }, scratch, best);
             for (i, (o, b)) in out.iter_mut().zip(best.iter()).enumerate() {
                 if searched >> i & 1 == 1 {
-                    *o = self.finish(step.lo + i, b, normals >> i & 1 == 1);
+                    *o = self.finish(step.lo + i, b, normals);
                 }
             }
             if searched.count_ones() as usize != best.len() {
-                self.share_spacing(step.lo, searched, out);
+                self.share(step.lo, searched, out);
             }
         } else {
             let [l, r] = step.children();
@@ -254,15 +274,15 @@ impl Job<'_> {
     }
 
     /// Gives each point of the leaf starting at `lo` that was not `searched` (bit i for point i)
-    /// the spacing of the nearest point that was (a normal it never needs).
-    fn share_spacing(&self, lo: usize, searched: u32, out: &mut [Estimate]) {
+    /// the estimate of the nearest point that was.
+    fn share(&self, lo: usize, searched: u32, out: &mut [Estimate]) {
         let pts = &self.search.positions[lo..lo + out.len()];
         for i in (0..out.len()).filter(|i| searched >> i & 1 == 0) {
             let nearest = (0..out.len())
                 .filter(|j| searched >> j & 1 == 1)
                 .min_by(|&a, &b| pts[a].distance_squared(pts[i]).total_cmp(&pts[b].distance_squared(pts[i])))
                 .unwrap_or(i);
-            out[i] = Estimate { normal: Vec3::ZERO, spacing: out[nearest].spacing };
+            out[i] = out[nearest];
         }
     }
 
@@ -621,11 +641,12 @@ mod tests {
     #[test]
     fn only_leaves_holding_a_point_that_needs_something_are_estimated() {
         let (pts, boxes) = grid();
-        let exact = estimate(&pts, &boxes, 12, 1, &|_| false, &|_| true).expect("enough points");
+        let exact = estimate(&pts, &boxes, 12, Strides::EXACT, &|_| false, &|_| true).expect("enough points");
         // Points left of x = 0.2 lack a spacing, one point at the far right lacks a normal.
         let lacks_spacing = |i: usize| pts[i].x < 0.2;
         let lone = pts.iter().position(|p| p.x > 0.45 && p.y > 0.45).expect("a corner point");
-        let est = estimate(&pts, &boxes, 12, 1, &|i| i == lone, &lacks_spacing).expect("enough points");
+        let est = estimate(&pts, &boxes, 12, Strides::EXACT, &|i| i == lone, &lacks_spacing)
+            .expect("enough points");
         let (mut estimated, mut skipped) = (0, 0);
         for path in boxtree::leaf_paths(pts.len()) {
             let leaf = path[path.len() - 1];
@@ -649,7 +670,7 @@ mod tests {
     }
 
     #[test]
-    fn a_stride_searches_some_points_and_shares_their_spacing() {
+    fn strides_search_some_points_and_share_their_estimates() {
         use rand::{Rng, SeedableRng};
         let mut rng = rand_pcg::Pcg64::seed_from_u64(5);
         // Uneven density, so that neighbouring points have different spacings.
@@ -660,39 +681,64 @@ mod tests {
             })
             .collect();
         let boxes = sorted_tree(&mut pts);
-        let need = |i: usize| i % 7 == 3;
-        let exact = estimate(&pts, &boxes, 12, 1, &need, &|_| true).expect("enough points");
-        for stride in [2usize, 4, 8, 16] {
-            let est = estimate(&pts, &boxes, 12, stride, &need, &|_| true).expect("enough points");
-            let (mut searched, mut shared) = (0, 0);
-            for path in boxtree::leaf_paths(pts.len()) {
-                let leaf = path[path.len() - 1];
-                let is_searched = |idx: usize| (idx - leaf.lo).is_multiple_of(stride) || need(idx);
-                for idx in leaf.lo..leaf.hi {
-                    if is_searched(idx) {
-                        // Searched points, and every point that needs a normal, are exact.
-                        assert_eq!(est[idx], exact[idx], "stride {stride}, point {idx}");
-                        searched += 1;
-                        continue;
+        // Leaves where no point needs a normal, some do, or all do.
+        let some = |i: usize| i % 7 == 3 && i < 2500;
+        let cases: [(&str, &(dyn Fn(usize) -> bool + Sync)); 3] =
+            [("no normals", &|_| false), ("some normals", &some), ("all normals", &|_| true)];
+        for (name, need) in cases {
+            let exact = estimate(&pts, &boxes, 12, Strides::EXACT, &need, &|_| true).expect("enough points");
+            for stride in [2usize, 4, 8, 16] {
+                for strides in
+                    [Strides { normal: 1, spacing: stride }, Strides { normal: stride, spacing: 1 }]
+                {
+                    let est = estimate(&pts, &boxes, 12, strides, &need, &|_| true).expect("enough points");
+                    let (mut searched, mut shared) = (0, 0);
+                    for path in boxtree::leaf_paths(pts.len()) {
+                        let leaf = path[path.len() - 1];
+                        let normals = (leaf.lo..leaf.hi).any(need);
+                        let stride = if normals { strides.normal } else { strides.spacing };
+                        let is_searched = |idx: usize| (idx - leaf.lo).is_multiple_of(stride);
+                        for idx in leaf.lo..leaf.hi {
+                            let what = format!("{name}, {strides:?}, point {idx}");
+                            if is_searched(idx) {
+                                // Searched points are exact; in a leaf where some point needs a
+                                // normal, all of them get one.
+                                assert_eq!(est[idx], exact[idx], "{what}");
+                                assert_eq!(est[idx].normal != Vec3::ZERO, normals, "{what}");
+                                searched += 1;
+                                continue;
+                            }
+                            // The others: the estimate of the nearest searched point of their leaf.
+                            let nearest = (leaf.lo..leaf.hi)
+                                .filter(|&j| is_searched(j))
+                                .min_by(|&a, &b| {
+                                    pts[a]
+                                        .distance_squared(pts[idx])
+                                        .total_cmp(&pts[b].distance_squared(pts[idx]))
+                                })
+                                .expect("a searched point in every leaf");
+                            assert_eq!(est[idx], exact[nearest], "{what}");
+                            if est[idx] != exact[idx] {
+                                shared += 1;
+                            }
+                        }
                     }
-                    // The others: the spacing of the nearest searched point of their leaf.
-                    let nearest = (leaf.lo..leaf.hi)
-                        .filter(|&j| is_searched(j))
-                        .min_by(|&a, &b| {
-                            pts[a].distance_squared(pts[idx]).total_cmp(&pts[b].distance_squared(pts[idx]))
-                        })
-                        .expect("a searched point in every leaf");
-                    assert_eq!(est[idx].spacing, exact[nearest].spacing, "stride {stride}, point {idx}");
-                    assert_eq!(est[idx].normal, Vec3::ZERO);
-                    if est[idx].spacing != exact[idx].spacing {
-                        shared += 1;
+                    // Each stride applies where its kind of leaf is.
+                    let applies = match name {
+                        "no normals" => strides.spacing > 1,
+                        "all normals" => strides.normal > 1,
+                        _ => true,
+                    };
+                    if applies {
+                        assert!(
+                            searched < pts.len() && shared > pts.len() / 8,
+                            "{name}, {strides:?}: {searched} searched, {shared} shared"
+                        );
+                    } else {
+                        assert_eq!((searched, shared), (pts.len(), 0), "{name}, {strides:?}");
                     }
                 }
             }
-            assert!(
-                searched < pts.len() && shared > pts.len() / 4,
-                "stride {stride}: {searched} searched, {shared} shared"
-            );
         }
     }
 
@@ -701,7 +747,8 @@ mod tests {
         for n in [2usize, 3] {
             let mut pts: Vec<Vec3> = (0..n).map(|i| Vec3::new(i as f32, (i * i) as f32 * 0.5, 0.0)).collect();
             let boxes = sorted_tree(&mut pts);
-            let est = estimate(&pts, &boxes, 12, 1, &|_| true, &|_| true).expect("distinct points");
+            let est =
+                estimate(&pts, &boxes, 12, Strides::EXACT, &|_| true, &|_| true).expect("distinct points");
             assert_eq!(est.len(), n);
             for e in &est {
                 assert!(e.spacing > 0.0 && e.spacing.is_finite(), "{n} points: {e:?}");
@@ -713,7 +760,7 @@ mod tests {
     #[test]
     fn spacing_of_a_grid_is_its_step() {
         let (pts, boxes) = grid();
-        let est = estimate(&pts, &boxes, 12, 1, &|_| true, &|_| true).expect("enough points");
+        let est = estimate(&pts, &boxes, 12, Strides::EXACT, &|_| true, &|_| true).expect("enough points");
         let interior: Vec<f32> = pts
             .iter()
             .zip(&est)

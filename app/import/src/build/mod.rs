@@ -66,6 +66,10 @@ pub struct BuildParams {
     /// leaf of 8–15 neighbouring samples; the others take the spacing of the nearest that did
     /// (1: every sample searches; see [`crate::estimate::estimate`]).
     pub spacing_stride: usize,
+    /// Samples without a normal (a bare point cloud's) search their neighbours one in this many
+    /// per leaf; the others take the normal and spacing of the nearest that did (1: every
+    /// sample searches; see [`crate::estimate::estimate`]).
+    pub normal_stride: usize,
     /// Splat radius = `radius_factor` × local spacing.
     pub radius_factor: f32,
     /// Cosine of the largest angle between normals of samples that may be merged.
@@ -84,6 +88,7 @@ impl Default for BuildParams {
             chunk_points: 4_000_000,
             knn: 12,
             spacing_stride: 8,
+            normal_stride: 1,
             radius_factor: 0.8,
             merge_normal_cos: 0.5,
             sample_size: 1_000_000,
@@ -198,12 +203,15 @@ impl Builder {
                 params.node_points, params.chunk_points
             )));
         }
-        if !(1..=boxtree::LEAF_POINTS).contains(&params.spacing_stride) {
-            return Err(BuildError::Params(format!(
-                "spacing_stride must be 1 to {} (got {})",
-                boxtree::LEAF_POINTS,
-                params.spacing_stride
-            )));
+        for (name, stride) in
+            [("spacing_stride", params.spacing_stride), ("normal_stride", params.normal_stride)]
+        {
+            if !(1..=boxtree::LEAF_POINTS).contains(&stride) {
+                return Err(BuildError::Params(format!(
+                    "{name} must be 1 to {} (got {stride})",
+                    boxtree::LEAF_POINTS
+                )));
+            }
         }
         Ok(Self {
             params,
@@ -469,13 +477,18 @@ mod tests {
             (BuildParams { chunk_points: 1000, ..Default::default() }, "chunk_points"),
             (BuildParams { spacing_stride: 0, ..Default::default() }, "spacing_stride"),
             (BuildParams { spacing_stride: 17, ..Default::default() }, "spacing_stride"),
+            (BuildParams { normal_stride: 0, ..Default::default() }, "normal_stride"),
+            (BuildParams { normal_stride: 17, ..Default::default() }, "normal_stride"),
         ] {
             match Builder::new(params, dir) {
                 Err(BuildError::Params(msg)) => assert!(msg.contains(name), "{msg}"),
                 other => panic!("{params:?}: {:?}", other.map(|_| ())),
             }
         }
-        assert!(Builder::new(BuildParams { spacing_stride: 16, ..Default::default() }, dir).is_ok());
+        assert!(
+            Builder::new(BuildParams { spacing_stride: 16, normal_stride: 16, ..Default::default() }, dir)
+                .is_ok()
+        );
     }
 
     #[test]

@@ -230,9 +230,11 @@ impl Ctx<'_> {
             let need_normal = |k: usize| lacks_normal(&sorted[k]);
             let need_spacing = |k: usize| lacks_spacing(&sorted[k]);
             let boxes = boxtree::build_boxes(positions);
-            let (k, stride) = (self.params.knn, self.params.spacing_stride);
-            let est = estimate::estimate(positions, &boxes, k, stride, &need_normal, &need_spacing)
-                .ok_or_else(|| BuildError::Degenerate("fewer than 2 distinct points".into()))?;
+            let strides =
+                estimate::Strides { normal: self.params.normal_stride, spacing: self.params.spacing_stride };
+            let est =
+                estimate::estimate(positions, &boxes, self.params.knn, strides, &need_normal, &need_spacing)
+                    .ok_or_else(|| BuildError::Degenerate("fewer than 2 distinct points".into()))?;
             self.timings.estimate += lap(&mut clock);
             positions
                 .par_iter()
