@@ -145,10 +145,10 @@ enum Command {
               value_parser = clap::value_parser!(u32).range(1..=16))]
         spacing_stride: u32,
         /// Speed against accuracy of the normals: samples without a normal (bare point clouds)
-        /// search their nearest neighbours one in N per group of 8–15 neighbouring samples; the
-        /// others take the normal and spacing of the nearest that did (1: every sample, exact;
-        /// 2 estimates about 1.6 times faster and loses detail in fine carving: figures in
-        /// docs/performance.md).
+        /// search their nearest neighbours one in N per group of 8–15 neighbouring samples;
+        /// where the normals found agree within 4°, the others take the normal and spacing of
+        /// the nearest that did, elsewhere (carving, edges, noise) they search too (1: every
+        /// sample; figures in docs/performance.md).
         #[arg(long, default_value_t = kiosk_import::BuildParams::default().normal_stride as u32,
               value_parser = clap::value_parser!(u32).range(1..=16))]
         normal_stride: u32,

@@ -829,7 +829,7 @@ fn spacing_tradeoff(scan: &[InputPoint], quick: bool) {
                 &pts,
                 &boxes,
                 k,
-                estimate::Strides { normal: 1, spacing: stride },
+                estimate::Strides { spacing: stride, ..estimate::Strides::EXACT },
                 &|_| false,
                 &|_| true,
             )

@@ -446,14 +446,15 @@ pub fn normal_tradeoff(n: u64, dragon: &Path, dir: &Path) -> anyhow::Result<()> 
             .collect::<Vec<_>>()
     };
     let k = kiosk_import::BuildParams::default().knn;
-    let default = kiosk_import::BuildParams::default().normal_stride;
+    let p = kiosk_import::BuildParams::default();
+    let default = (p.normal_stride, p.normal_spread_deg);
     println!(
-        "\n## Speed against accuracy: normal stride (clouds without normals, k = {k}; estimation alone, fastest of 3)"
+        "\n## Speed against accuracy: normal stride and spread (clouds without normals, k = {k}; estimation alone, fastest of 3)"
     );
     println!(
-        "| input | stride | estimate s | normal error vs reference: median ° | p90 ° | p99 ° | vs stride 1: median ° | p99 ° | spacing vs stride 1: median | p95 |"
+        "| input | stride, spread | estimate s | normal error vs reference: median ° | p90 ° | p99 ° | vs stride 1: median ° | p99 ° | spacing vs stride 1: median | p95 | points estimated as at stride 1 |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let mut series = Vec::new();
     for (name, cloud) in [("survey sphere", survey), ("dragon", dragon), ("bunny range scan", bunny)] {
         let rows = normal_stride_rows(name, cloud, k, default);
@@ -462,8 +463,9 @@ pub fn normal_tradeoff(n: u64, dragon: &Path, dir: &Path) -> anyhow::Result<()> 
     plot_normal_tradeoff(&dir.join("normal-stride.svg"), &series)
 }
 
-/// A stride, its estimation seconds, and the median and 99th percentile of its normals' error.
-type StrideRow = (usize, f64, f64, f64);
+/// A stride and spread, its estimation seconds, and the median and 99th percentile of its
+/// normals' error.
+type StrideRow = (String, f64, f64, f64);
 
 /// [`normal_tradeoff`]'s rows for one cloud of (position, reference normal); returns, for each
 /// stride, its row.
@@ -471,7 +473,7 @@ fn normal_stride_rows(
     name: &str,
     mut cloud: Vec<(glam::Vec3, glam::Vec3)>,
     k: usize,
-    default: usize,
+    default: (usize, f32),
 ) -> Vec<StrideRow> {
     use kiosk_import::estimate::{self, Strides};
     let bits = |p: &glam::Vec3| p.to_array().map(f32::to_bits);
@@ -482,8 +484,8 @@ fn normal_stride_rows(
         cloud.iter().map(|(p, n)| (bits(p), *n)).collect();
     let mut pos: Vec<glam::Vec3> = cloud.iter().map(|c| c.0).collect();
     let boxes = estimate::sorted_tree(&mut pos);
-    let run = |stride: usize| {
-        let strides = Strides { normal: stride, spacing: 1 };
+    let run = |stride: usize, spread: f32| {
+        let strides = Strides { normal: stride, spacing: 1, spread_cos: spread.to_radians().cos() };
         let mut best = f64::INFINITY;
         let mut out = Vec::new();
         for _ in 0..3 {
@@ -500,10 +502,16 @@ fn normal_stride_rows(
     // Unoriented, and exact near 0° (unlike the arc cosine of the dot product).
     let angle =
         |a: glam::Vec3, b: glam::Vec3| f64::from(a.cross(b).length().atan2(a.dot(b).abs()).to_degrees());
-    let (_, exact) = run(1);
+    let (_, exact) = run(1, 90.0);
     let mut points = Vec::new();
-    for stride in [1usize, 2, 3, 4, 8] {
-        let (secs, est) = run(stride);
+    // Spreads of 90° share whatever the normals found.
+    let mut configs =
+        vec![(1usize, 90.0f32), (2, 2.0), (2, 4.0), (2, 8.0), (2, 90.0), (3, 4.0), (4, 4.0), (4, 90.0)];
+    if default.0 > 1 && !configs.contains(&default) {
+        configs.push(default);
+    }
+    for (stride, spread) in configs {
+        let (secs, est) = run(stride, spread);
         let truth: Vec<f64> = pos
             .iter()
             .zip(&est)
@@ -514,9 +522,16 @@ fn normal_stride_rows(
         let vs_exact: Vec<f64> = est.iter().zip(&exact).map(|(a, b)| angle(a.normal, b.normal)).collect();
         let spacing: Vec<f64> =
             est.iter().zip(&exact).map(|(a, b)| f64::from((a.spacing / b.spacing - 1.0).abs())).collect();
-        let mark = if stride == default { " (default)" } else { "" };
+        let same = est.iter().zip(&exact).filter(|(a, b)| a == b).count() as f64 / est.len() as f64;
+        let label = match (stride, spread) {
+            (1, _) => "1".to_string(),
+            (_, 90.0) => format!("{stride}, any"),
+            _ => format!("{stride}, {spread}°"),
+        };
+        let mark =
+            if (stride, spread) == default || (stride == 1 && default.0 == 1) { " (default)" } else { "" };
         println!(
-            "| {name} ({} points) | {stride}{mark} | {secs:.3} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.3} | {:.3} |",
+            "| {name} ({} points) | {label}{mark} | {secs:.3} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.3} | {:.3} | {:.0} % |",
             pos.len(),
             pct(truth.clone(), 0.5),
             pct(truth.clone(), 0.9),
@@ -525,8 +540,9 @@ fn normal_stride_rows(
             pct(vs_exact, 0.99),
             pct(spacing.clone(), 0.5),
             pct(spacing, 0.95),
+            same * 100.0,
         );
-        points.push((stride, secs, pct(truth.clone(), 0.5), pct(truth, 0.99)));
+        points.push((label, secs, pct(truth.clone(), 0.5), pct(truth, 0.99)));
     }
     points
 }
@@ -539,7 +555,7 @@ fn plot_normal_tradeoff(path: &Path, series: &[(&str, Vec<StrideRow>)]) -> anyho
     let rel = |rows: &[StrideRow], r: &StrideRow| r.1 / rows[0].1;
     let ymax = series.iter().flat_map(|(_, rows)| rows.iter().map(|r| r.3)).fold(0.0, f64::max) * 1.15;
     let mut chart = ChartBuilder::on(&root)
-        .caption("Normal stride: estimation time against normal error", ("sans-serif", 20))
+        .caption("Normal stride and spread: estimation time against normal error", ("sans-serif", 20))
         .margin(15)
         .x_label_area_size(45)
         .y_label_area_size(60)
@@ -552,15 +568,13 @@ fn plot_normal_tradeoff(path: &Path, series: &[(&str, Vec<StrideRow>)]) -> anyho
     for (i, (name, rows)) in series.iter().enumerate() {
         let colour = Palette99::pick(i).to_rgba();
         chart
-            .draw_series(LineSeries::new(rows.iter().map(|r| (rel(rows, r), r.2)), colour))?
+            .draw_series(rows.iter().map(|r| {
+                EmptyElement::at((rel(rows, r), r.2))
+                    + Circle::new((0, 0), 4, colour.filled())
+                    + Text::new(r.0.clone(), (5, -15), ("sans-serif", 12))
+            }))?
             .label(*name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
-        chart.draw_series(LineSeries::new(rows.iter().map(|r| (rel(rows, r), r.3)), colour))?;
-        chart.draw_series(rows.iter().map(|r| {
-            EmptyElement::at((rel(rows, r), r.2))
-                + Circle::new((0, 0), 4, colour.filled())
-                + Text::new(format!("{}", r.0), (5, -15), ("sans-serif", 12))
-        }))?;
+            .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
         chart
             .draw_series(rows.iter().map(|r| TriangleMarker::new((rel(rows, r), r.3), 5, colour.filled())))?;
     }

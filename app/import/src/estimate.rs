@@ -158,17 +158,21 @@ pub struct Estimate {
 /// How many points of each leaf search their neighbours (see [`estimate`]): one in `normal` of
 /// a leaf where some point needs a normal, one in `spacing` of a leaf where points need only a
 /// spacing.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Strides {
     /// Stride where a normal is needed.
     pub normal: usize,
     /// Stride where only spacings are.
     pub spacing: usize,
+    /// Cosine of the largest angle between the normals found in a leaf for its other points to
+    /// share them; a leaf whose normals spread wider (a carved, curved or noisy surface)
+    /// searches for every point.
+    pub spread_cos: f32,
 }
 
 impl Strides {
     /// Every point searches.
-    pub const EXACT: Self = Self { normal: 1, spacing: 1 };
+    pub const EXACT: Self = Self { normal: 1, spacing: 1, spread_cos: 1.0 };
 }
 
 /// Most neighbours [`estimate`] can use.
@@ -208,7 +212,7 @@ pub fn estimate(
     let centroid = positions.iter().fold(Vec3::ZERO, |a, p| a + *p) / positions.len() as f32;
     let soa = Soa::new(positions);
     let search = LeafSearch { positions, soa: &soa, boxes, k: k + 1 };
-    let strides = Strides { normal: strides.normal.max(1), spacing: strides.spacing.max(1) };
+    let strides = Strides { normal: strides.normal.max(1), spacing: strides.spacing.max(1), ..strides };
     let job = Job { search, centroid, need_normal, need_spacing, strides };
     let mut out = Vec::new();
     out.par_extend(rayon::iter::repeat_n(Estimate { normal: Vec3::ZERO, spacing: 0.0 }, positions.len()));
@@ -246,14 +250,15 @@ impl Job<'_> {
             // A leaf where some point needs a normal searches with the normal stride, and every
             // point that searches there gets a normal.
             let stride = if normals { self.strides.normal } else { self.strides.spacing };
-            let searched = (0..best.len()).step_by(stride).fold(0u32, |m, i| m | 1 << i);
-            self.search.leaf(path, searched, if normals { searched } else { 0 }, scratch, best);
-            for (i, (o, b)) in out.iter_mut().zip(best.iter()).enumerate() {
-                if searched >> i & 1 == 1 {
-                    *o = self.finish(step.lo + i, b, normals);
-                }
+            let all = (1u32 << best.len()) - 1;
+            let mut searched = (0..best.len()).step_by(stride).fold(0u32, |m, i| m | 1 << i);
+            self.search_leaf(step.lo, path, searched, normals, scratch, best, out);
+            // Normals are shared only where those found agree; elsewhere every point searches.
+            if normals && searched != all && !self.agree(searched, out) {
+                self.search_leaf(step.lo, path, all & !searched, normals, scratch, best, out);
+                searched = all;
             }
-            if searched.count_ones() as usize != best.len() {
+            if searched != all {
                 self.share(step.lo, searched, out);
             }
         } else {
@@ -271,6 +276,39 @@ impl Job<'_> {
             }
         }
         path.pop();
+    }
+
+    /// Searches the neighbours of the points of the leaf ending `path` (starting at `lo`) with
+    /// bit i of `which` set, and estimates them into `out` (the leaf's), with normals or not.
+    #[expect(clippy::too_many_arguments, reason = "one leaf's search, split out to run twice")]
+    fn search_leaf(
+        &self,
+        lo: usize,
+        path: &[PathStep],
+        which: u32,
+        normals: bool,
+        scratch: &mut Scratch,
+        best: &mut [TopK],
+        out: &mut [Estimate],
+    ) {
+        self.search.leaf(path, which, if normals { which } else { 0 }, scratch, best);
+        for (i, (o, b)) in out.iter_mut().zip(best.iter()).enumerate() {
+            if which >> i & 1 == 1 {
+                *o = self.finish(lo + i, b, normals);
+            }
+        }
+    }
+
+    /// Whether the normals of the `searched` points of a leaf (`out`), two at least, lie within
+    /// [`Strides::spread_cos`] of each other (unoriented).
+    fn agree(&self, searched: u32, out: &[Estimate]) -> bool {
+        if searched.count_ones() < 2 {
+            return self.strides.spread_cos <= 0.0;
+        }
+        let normals = || (0..out.len()).filter(move |i| searched >> i & 1 == 1).map(|i| out[i].normal);
+        normals()
+            .enumerate()
+            .all(|(i, a)| normals().skip(i + 1).all(|b| a.dot(b).abs() >= self.strides.spread_cos))
     }
 
     /// Gives each point of the leaf starting at `lo` that was not `searched` (bit i for point i)
@@ -688,16 +726,33 @@ mod tests {
         for (name, need) in cases {
             let exact = estimate(&pts, &boxes, 12, Strides::EXACT, &need, &|_| true).expect("enough points");
             for stride in [2usize, 4, 8, 16] {
-                for strides in
-                    [Strides { normal: 1, spacing: stride }, Strides { normal: stride, spacing: 1 }]
-                {
+                // Normals shared whatever their spread, or only where they agree (two at least
+                // found: with strides of 8 and more a leaf may have one).
+                let agreeing = Strides { normal: stride, spacing: 1, spread_cos: 3f32.to_radians().cos() };
+                let configs = [
+                    Some(Strides { spacing: stride, ..Strides::EXACT }),
+                    Some(Strides { normal: stride, spacing: 1, spread_cos: 0.0 }),
+                    (stride <= 4).then_some(agreeing),
+                ];
+                for strides in configs.into_iter().flatten() {
                     let est = estimate(&pts, &boxes, 12, strides, &need, &|_| true).expect("enough points");
-                    let (mut searched, mut shared) = (0, 0);
+                    let (mut searched, mut shared, mut spread_leaves) = (0, 0, 0);
                     for path in boxtree::leaf_paths(pts.len()) {
                         let leaf = path[path.len() - 1];
                         let normals = (leaf.lo..leaf.hi).any(need);
                         let stride = if normals { strides.normal } else { strides.spacing };
-                        let is_searched = |idx: usize| (idx - leaf.lo).is_multiple_of(stride);
+                        let first = |idx: usize| (idx - leaf.lo).is_multiple_of(stride);
+                        let agree = strides.spread_cos <= 0.0
+                            || (leaf.lo..leaf.hi).filter(|&i| first(i)).count() >= 2
+                                && (leaf.lo..leaf.hi).filter(|&i| first(i)).all(|i| {
+                                    (leaf.lo..leaf.hi).filter(|&j| first(j)).all(|j| {
+                                        exact[i].normal.dot(exact[j].normal).abs() >= strides.spread_cos
+                                    })
+                                });
+                        // A leaf whose first normals spread too wide searches every point.
+                        let spread = normals && stride > 1 && !agree;
+                        spread_leaves += usize::from(spread);
+                        let is_searched = |idx: usize| spread || first(idx);
                         for idx in leaf.lo..leaf.hi {
                             let what = format!("{name}, {strides:?}, point {idx}");
                             if is_searched(idx) {
@@ -730,9 +785,16 @@ mod tests {
                         _ => true,
                     };
                     if applies {
+                        // Where normals are shared only when they agree, the wave's curved
+                        // leaves search every point and its flatter ones share.
+                        let (least, spreads) = if strides.normal > 1 && strides.spread_cos > 0.0 {
+                            (pts.len() / 50, 20)
+                        } else {
+                            (pts.len() / 8, 0)
+                        };
                         assert!(
-                            searched < pts.len() && shared > pts.len() / 8,
-                            "{name}, {strides:?}: {searched} searched, {shared} shared"
+                            searched < pts.len() && shared > least && spread_leaves >= spreads,
+                            "{name}, {strides:?}: {searched} searched, {shared} shared, {spread_leaves} leaves spread"
                         );
                     } else {
                         assert_eq!((searched, shared), (pts.len(), 0), "{name}, {strides:?}");

@@ -67,9 +67,13 @@ pub struct BuildParams {
     /// (1: every sample searches; see [`crate::estimate::estimate`]).
     pub spacing_stride: usize,
     /// Samples without a normal (a bare point cloud's) search their neighbours one in this many
-    /// per leaf; the others take the normal and spacing of the nearest that did (1: every
-    /// sample searches; see [`crate::estimate::estimate`]).
+    /// per leaf of 8–15 neighbouring samples; where the normals found agree within
+    /// `normal_spread_deg`, the others take the normal and spacing of the nearest that searched,
+    /// elsewhere they search too (1: every sample searches; see [`crate::estimate::Strides`]).
     pub normal_stride: usize,
+    /// The largest angle in degrees between the normals found in a leaf for its other samples
+    /// to share them (at least two found).
+    pub normal_spread_deg: f32,
     /// Splat radius = `radius_factor` × local spacing.
     pub radius_factor: f32,
     /// Cosine of the largest angle between normals of samples that may be merged.
@@ -88,7 +92,8 @@ impl Default for BuildParams {
             chunk_points: 4_000_000,
             knn: 12,
             spacing_stride: 8,
-            normal_stride: 1,
+            normal_stride: 4,
+            normal_spread_deg: 4.0,
             radius_factor: 0.8,
             merge_normal_cos: 0.5,
             sample_size: 1_000_000,

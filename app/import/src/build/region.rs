@@ -230,8 +230,11 @@ impl Ctx<'_> {
             let need_normal = |k: usize| lacks_normal(&sorted[k]);
             let need_spacing = |k: usize| lacks_spacing(&sorted[k]);
             let boxes = boxtree::build_boxes(positions);
-            let strides =
-                estimate::Strides { normal: self.params.normal_stride, spacing: self.params.spacing_stride };
+            let strides = estimate::Strides {
+                normal: self.params.normal_stride,
+                spacing: self.params.spacing_stride,
+                spread_cos: self.params.normal_spread_deg.to_radians().cos(),
+            };
             let est =
                 estimate::estimate(positions, &boxes, self.params.knn, strides, &need_normal, &need_spacing)
                     .ok_or_else(|| BuildError::Degenerate("fewer than 2 distinct points".into()))?;
