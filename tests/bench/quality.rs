@@ -247,3 +247,116 @@ fn plot(rows: &[Row], tolerance: &[ToleranceSeries], out_dir: &Path) -> anyhow::
     println!("\nplot: {} ({})", svg.display(), png.display());
     Ok(())
 }
+
+/// The splat radius of point clouds (`BuildParams::cloud_radius_factor`) against the mesh render:
+/// each model's vertices alone, as a bare point cloud (no normals, no spacings, no faces: all
+/// estimated, as for a survey scan), built with each radius factor and drawn blended at the
+/// middle and close-up views. The models are the quality table's and the dragon, whose
+/// marching-cubes vertices lie the least regularly. Printed: SSIM, PSNR, and the holes, the share
+/// of the mesh's interior where the splats' pixel is more than 48/255 from the mesh's (in any
+/// channel: the surface behind, or the background, seen through a gap). Images in
+/// target/bench/quality.
+pub fn cloud_radius(
+    gpu: &Gpu,
+    renderer: &mut Renderer,
+    root: &Path,
+    out_dir: &Path,
+    size: (u32, u32),
+) -> anyhow::Result<()> {
+    use kiosk_import::source::{InputPoint, ReadOptions};
+    use kiosk_import::{BuildParams, Builder};
+    const FACTORS: [f32; 7] = [0.8, 1.0, 1.2, 1.4, 1.6, 2.0, 2.5];
+    let mesh_renderer = MeshRenderer::new(gpu, kiosk_render::OFFSCREEN_FORMAT);
+    let base = RenderSettings::default();
+    let bg = srgb8(base.background);
+    let dir = tempfile::tempdir()?;
+    let images = out_dir.join("quality");
+    std::fs::create_dir_all(&images)?;
+    let default = BuildParams::default().cloud_radius_factor;
+    println!(
+        "\n## Point clouds: splat radius against the mesh render ({}×{}, blended, 1 px cut; the meshes' vertices alone, normals and spacings estimated)",
+        size.0, size.1
+    );
+    println!("| model | view | radius / spacing | SSIM | PSNR dB | holes |");
+    println!("|---|---|---|---|---|---|");
+    let mut series: Vec<(String, Vec<(f32, f64)>)> = Vec::new();
+    // The mesh reader takes plain text: the dragon is unpacked first.
+    let dragon = dir.path().join("dragon_vrip.ply");
+    std::io::copy(
+        &mut kiosk_import::formats::gzip::open(&kiosk_testkit::synthetic::dragon_scan())?,
+        &mut std::fs::File::create(&dragon)?,
+    )?;
+    let dragon = dragon.to_string_lossy().into_owned();
+    for (name, rel) in MODELS.into_iter().chain([("dragon (held back)", dragon.as_str())]) {
+        let path = root.join(rel);
+        let opts = ReadOptions { fill_plain_meshes: false, ..ReadOptions::default() };
+        let (pts, _) = kiosk_import::formats::read_all(&path, &opts)?;
+        let mesh = kiosk_testkit::mesh::read(&path).map_err(anyhow::Error::msg)?;
+        let short = name.split(' ').next().unwrap_or("m");
+        let mut close = Vec::new();
+        let mut references = Vec::new();
+        for factor in FACTORS {
+            let out = dir.path().join(format!("{short}-{factor}.kstore"));
+            let params = BuildParams { cloud_radius_factor: factor, ..BuildParams::default() };
+            let mut b = Builder::new(params, dir.path())?;
+            b.push_all(pts.iter().map(|p| InputPoint::at(p.pos, p.color)).collect())?;
+            b.finish(&out, &mut |_| {})?;
+            let store = kiosk_content::open_store(&out)?;
+            let views = kiosk_testkit::mesh::views(&store, &mesh);
+            if references.is_empty() {
+                for (view, cam) in &views[1..] {
+                    let reference = mesh_renderer.render_image(gpu, &mesh, cam, size, &base)?;
+                    let inside = interior(&coverage(&reference, bg), &coverage(&reference, bg), size, 2);
+                    references.push((*view, reference, inside));
+                }
+            }
+            for ((view, cam), (_, reference, inside)) in views[1..].iter().zip(&references) {
+                let (img, _) = splat_frame(gpu, renderer, &store, cam, size, 1.0, &base, 0)?;
+                img.save(images.join(format!("{short}-cloud-{view}-r{factor}.png")))?;
+                let inner = inside.iter().filter(|&&i| i).count().max(1);
+                let holes = inside
+                    .iter()
+                    .zip(img.pixels().zip(reference.pixels()))
+                    .filter(|(i, (a, b))| **i && (0..3).any(|c| a[c].abs_diff(b[c]) > 48))
+                    .count();
+                let ssim = ssim(&img, reference);
+                let mark = if factor == default { " (default)" } else { "" };
+                println!(
+                    "| {name} | {view} | {factor}{mark} | {ssim:.4} | {:.2} | {:.2} % |",
+                    psnr(&img, reference),
+                    100.0 * holes as f64 / inner as f64
+                );
+                if *view == "close-up" {
+                    close.push((factor, ssim));
+                }
+            }
+        }
+        series.push((name.into(), close));
+    }
+    plot_cloud_radius(&series, &out_dir.join("render-cloud-radius.svg"))
+}
+
+fn plot_cloud_radius(series: &[(String, Vec<(f32, f64)>)], path: &Path) -> anyhow::Result<()> {
+    let root = SVGBackend::new(path, (800, 500)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let lo = series.iter().flat_map(|(_, s)| s.iter().map(|p| p.1)).fold(1.0, f64::min);
+    let mut chart = ChartBuilder::on(&root)
+        .caption("Point clouds: splat radius against SSIM to the mesh (close-ups)", ("sans-serif", 20))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.7f32..2.6f32, (lo - 0.01)..1.0)?;
+    chart.configure_mesh().x_desc("splat radius / estimated spacing").y_desc("SSIM").draw()?;
+    for (i, (name, s)) in series.iter().enumerate() {
+        let colour = Palette99::pick(i).to_rgba();
+        chart
+            .draw_series(LineSeries::new(s.iter().copied(), colour.stroke_width(2)))?
+            .label(name.as_str())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+        chart.draw_series(s.iter().map(|p| Circle::new(*p, 4, colour.filled())))?;
+    }
+    chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw()?;
+    root.present()?;
+    println!("\nplot: {}", path.display());
+    Ok(())
+}

@@ -1,4 +1,4 @@
-//! `cargo bench --bench render [-- --quick | --tradeoff-only | --quality-only]`: the renderer's numbers
+//! `cargo bench --bench render [-- --quick | --tradeoff-only | --quality-only | --cloud-radius-only]`: the renderer's numbers
 //! (docs/performance.md). No GPU here: the adapter is lavapipe (software Vulkan); the command is
 //! the same on a GPU.
 //!
@@ -55,6 +55,9 @@ fn main() -> anyhow::Result<()> {
     let quality_size = (1920, 1080);
     if std::env::args().any(|a| a == "--texel-only") {
         return texel::run(&gpu, &mut renderer, root, &out_dir, quality_size);
+    }
+    if std::env::args().any(|a| a == "--cloud-radius-only") {
+        return quality::cloud_radius(&gpu, &mut renderer, root, &out_dir, quality_size);
     }
     if std::env::args().any(|a| a == "--quality-only") {
         quality::run(&gpu, &mut renderer, root, &out_dir, quality_size, if quick { 2 } else { 5 })?;

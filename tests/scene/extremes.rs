@@ -147,12 +147,14 @@ fn spacings_brought_are_kept_and_the_missing_ones_estimated() {
         })
         .collect();
     let b = common::build(&pts, small_nodes());
-    let factor = kiosk_import::BuildParams::default().radius_factor;
+    let params = kiosk_import::BuildParams::default();
     let (mut brought, mut estimated) = (0, 0);
     for id in Cut::leaves(&b.store).nodes() {
         for s in b.store.splats(*id) {
             let p = b.store.to_model(s.position());
             let (ix, iy) = ((p.x / 0.01).round() as usize, (p.y / 0.01).round() as usize);
+            // Spacings brought and estimated make radii by factors of their own.
+            let factor = if ix % 2 == 0 { params.radius_factor } else { params.cloud_radius_factor };
             let h = s.radius / factor;
             if ix % 2 == 0 {
                 assert!((h - 0.004).abs() < 1e-6, "sample ({ix}, {iy}): spacing {h}, brought 0.004");
@@ -173,7 +175,7 @@ fn spacings_brought_are_kept_and_the_missing_ones_estimated() {
     let b = common::build(&all, small_nodes());
     for id in Cut::leaves(&b.store).nodes() {
         assert!((b.store.node(*id).spacing - 0.004).abs() < 1e-6, "{}", b.store.node(*id).spacing);
-        assert!(b.store.splats(*id).iter().all(|s| (s.radius - factor * 0.004).abs() < 1e-6));
+        assert!(b.store.splats(*id).iter().all(|s| (s.radius - params.radius_factor * 0.004).abs() < 1e-6));
     }
 }
 

@@ -73,7 +73,11 @@ fn fine_target_at_full_depth_is_within_the_sample_spacing() {
         // The scans' vertices alone: where a fine mesh also has a few large triangles (the
         // bunny's 507 samples on them), their grid samples sit beside much denser vertices and
         // the worst query lands 1.03 spacings away: this oracle's bound is for one sampling.
-        let built = common::build(&common::read_vertices(scan), small_nodes());
+        // The yardstick is each vertex's own spacing from its radius: every vertex searches its
+        // own neighbours (normal stride 1), and radii are 0.8 spacings, as for a mesh's
+        // vertices, so that a circumradius from the faces enlarges the spacing as it does there.
+        let own = BuildParams { normal_stride: 1, cloud_radius_factor: 0.8, ..small_nodes() };
+        let built = common::build(&common::read_vertices(scan), own);
         let store = &built.store;
         let cut = Cut::leaves(store);
         let params = QueryParams::default();
@@ -82,10 +86,10 @@ fn fine_target_at_full_depth_is_within_the_sample_spacing() {
             let fine = store.fine_target(&cut, q, &params).expect("finite");
             let (_, node, idx) = store.knn_local(Level::Full, store.to_local(q), 1, u32::MAX)[0];
             let (_, exact) = store.nearest_sample(q).expect("finite");
-            // The local sample spacing there: the builder sets radius = radius_factor × spacing
-            // (faces can only enlarge it), so radius / radius_factor bounds it from above; the
-            // node's average spacing is the tighter figure where the mesh is regular.
-            let local = store.splats(node)[idx as usize].radius / BuildParams::default().radius_factor;
+            // The local sample spacing there: the builder sets radius = cloud_radius_factor ×
+            // spacing (faces can only enlarge it), so radius / cloud_radius_factor bounds it from
+            // above; the node's average spacing is the tighter figure where the mesh is regular.
+            let local = store.splats(node)[idx as usize].radius / own.cloud_radius_factor;
             let spacing = local.max(store.node(node).spacing);
             let ratio = ((fine.point - exact).length() / f64::from(spacing)) as f32;
             worst = worst.max(ratio);
@@ -146,12 +150,16 @@ fn ray_casts_agree_with_parry3d_on_the_mesh() {
             (t_mesh, Some(hit)) => {
                 hits += usize::from(t_mesh.is_some());
                 ours_only += usize::from(t_mesh.is_none());
-                let radius = store.splats(hit.node)[hit.index as usize].radius;
-                let p = hit.point;
-                let on_mesh =
-                    tri.distance_to_local_point(&Point3::new(p.x as f32, p.y as f32, p.z as f32), true);
-                // The first hit lies on the surface dilated by the splat radius…
-                if on_mesh > radius * 1.001 + 1e-6 {
+                let splat = store.splats(hit.node)[hit.index as usize];
+                let radius = splat.radius;
+                let to_mesh = |p: DVec3| {
+                    tri.distance_to_local_point(&Point3::new(p.x as f32, p.y as f32, p.z as f32), true)
+                };
+                let on_mesh = to_mesh(hit.point);
+                // The first hit lies on the surface dilated by the splat radius (from the splat's
+                // centre: the scan has vertices in no triangle, a little off the surface)…
+                let off = to_mesh(store.to_model(splat.position()));
+                if on_mesh > radius * 1.001 + off + 1e-6 {
                     bad.push(format!("ray {d}: hit {on_mesh:e} from the mesh, radius {radius:e}"));
                 }
                 // …and never behind the surface (no holes).

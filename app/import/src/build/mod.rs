@@ -74,8 +74,13 @@ pub struct BuildParams {
     /// The largest angle in degrees between the normals found in a leaf for its other samples
     /// to share them (at least two found).
     pub normal_spread_deg: f32,
-    /// Splat radius = `radius_factor` × local spacing.
+    /// Splat radius = `radius_factor` × local spacing, where the input brings the spacing (a
+    /// mesh's vertices, from their faces, whose circumradius bounds the radius from below).
     pub radius_factor: f32,
+    /// Splat radius = `cloud_radius_factor` × local spacing, where the spacing is estimated from
+    /// the nearest neighbours (point clouds): their samples lie irregularly, so discs of 0.8
+    /// spacings leave holes between them that a mesh's would not (figures in docs/performance.md).
+    pub cloud_radius_factor: f32,
     /// Cosine of the largest angle between normals of samples that may be merged.
     pub merge_normal_cos: f32,
     /// Size of the random samples that choose the top-level splits (of the samples in memory
@@ -95,6 +100,7 @@ impl Default for BuildParams {
             normal_stride: 4,
             normal_spread_deg: 4.0,
             radius_factor: 0.8,
+            cloud_radius_factor: 1.4,
             merge_normal_cos: 0.5,
             sample_size: 1_000_000,
             seed: 0x15_0c_a3,

@@ -201,13 +201,15 @@ impl Ctx<'_> {
         // spacing, their estimates (`e`).
         let lacks_normal = |a: &Attrs| a.normal == Vec3::ZERO;
         let lacks_spacing = |a: &Attrs| !known_spacing(a.spacing);
-        let radius_factor = self.params.radius_factor;
+        let (radius_factor, cloud_radius_factor) =
+            (self.params.radius_factor, self.params.cloud_radius_factor);
         let splat = |pos: Vec3, a: &Attrs, e: Estimate| {
             let normal = if lacks_normal(a) { e.normal } else { a.normal };
-            let spacing = if lacks_spacing(a) { e.spacing } else { a.spacing };
+            let (spacing, factor) =
+                if lacks_spacing(a) { (e.spacing, cloud_radius_factor) } else { (a.spacing, radius_factor) };
             // A lone point far from the rest still gets a finite, positive radius.
             let h = if known_spacing(spacing) { spacing } else { f32::MIN_POSITIVE };
-            let radius = (radius_factor * h).max(a.min_radius);
+            let radius = (factor * h).max(a.min_radius);
             (Work { pos, normal, radius, color: a.color }, h * h)
         };
         if !merged.par_iter().any(|(_, a)| lacks_normal(a) || lacks_spacing(a)) {
