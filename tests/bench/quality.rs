@@ -252,10 +252,10 @@ fn plot(rows: &[Row], tolerance: &[ToleranceSeries], out_dir: &Path) -> anyhow::
 /// each model's vertices alone, as a bare point cloud (no normals, no spacings, no faces: all
 /// estimated, as for a survey scan), built with each radius factor and drawn blended at the
 /// middle and close-up views. The models are the quality table's and the dragon, whose
-/// marching-cubes vertices lie the least regularly. Printed: SSIM, PSNR, and the holes, the share
-/// of the mesh's interior where the splats' pixel is more than 48/255 from the mesh's (in any
-/// channel: the surface behind, or the background, seen through a gap). Images in
-/// target/bench/quality.
+/// marching-cubes vertices lie the least regularly. Printed: SSIM, PSNR, and the share of the
+/// mesh's interior where the splats' pixel is more than 48/255 from the mesh's in some channel
+/// (the surface behind, or the background, seen through a gap; or a disc overhanging a crease).
+/// Images in target/bench/quality.
 pub fn cloud_radius(
     gpu: &Gpu,
     renderer: &mut Renderer,
@@ -277,7 +277,7 @@ pub fn cloud_radius(
         "\n## Point clouds: splat radius against the mesh render ({}×{}, blended, 1 px cut; the meshes' vertices alone, normals and spacings estimated)",
         size.0, size.1
     );
-    println!("| model | view | radius / spacing | SSIM | PSNR dB | holes |");
+    println!("| model | view | radius / spacing | SSIM | PSNR dB | pixels off by > 48/255 |");
     println!("|---|---|---|---|---|---|");
     let mut series: Vec<(String, Vec<(f32, f64)>)> = Vec::new();
     // The mesh reader takes plain text: the dragon is unpacked first.
@@ -355,7 +355,12 @@ fn plot_cloud_radius(series: &[(String, Vec<(f32, f64)>)], path: &Path) -> anyho
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
         chart.draw_series(s.iter().map(|p| Circle::new(*p, 4, colour.filled())))?;
     }
-    chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw()?;
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .border_style(BLACK)
+        .background_style(WHITE)
+        .draw()?;
     root.present()?;
     println!("\nplot: {}", path.display());
     Ok(())

@@ -31,10 +31,10 @@
 //! Where a sample needs a normal, one in `normal_stride` of each leaf (`Strides`) searches
 //! first; if the normals found agree within `normal_spread_deg`, the leaf's other samples take
 //! the normal and spacing of the nearest of them, and otherwise they search too. A smooth stretch
-//! of surface (a wall, terrain, a sphere) shares most normals and is estimated about twice as
-//! fast without a measurable loss; carving, edges and noise spread the normals and mostly search
+//! of surface (a wall, terrain, a sphere) shares most normals and is estimated in under half the
+//! time without a measurable loss; carving, edges and noise spread the normals and mostly search
 //! (on the dragon and a raw range scan the median error to reference normals grows by 3 %, the
-//! 99th percentile not at all: `cargo bench --bench scene -- --normal-stride-only`,
+//! 99th percentile by under 1 %: `cargo bench --bench scene -- --normal-stride-only`,
 //! docs/performance.md).
 //!
 //! Candidates are gathered without a branch and then sorted: keeping a running k nearest with
