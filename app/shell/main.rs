@@ -150,7 +150,7 @@ enum Command {
         /// the nearest that did, elsewhere (carving, edges, noise) they search too (1: every
         /// sample; figures in docs/performance.md).
         #[arg(long, default_value_t = kiosk_import::BuildParams::default().normal_stride as u32,
-              value_parser = clap::value_parser!(u32).range(1..=16))]
+              value_parser = clap::value_parser!(u32).range(1..=kiosk_import::build::MAX_NORMAL_STRIDE as i64))]
         normal_stride: u32,
         /// Skip samples with NaN/∞ coordinates instead of failing.
         #[arg(long)]

@@ -77,29 +77,17 @@ fn main() -> anyhow::Result<()> {
         return texture_8k();
     }
     if args.iter().any(|a| a == "--survey-only") {
-        let n = args
-            .iter()
-            .position(|a| a == "--points")
-            .and_then(|i| args.get(i + 1))
-            .map_or(Ok(SURVEY_POINTS), |s| s.parse())?;
+        let n = points_arg(&args, SURVEY_POINTS)?;
         let out_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench");
         std::fs::create_dir_all(&out_dir)?;
         return survey::readers(&out_dir, n);
     }
     if args.iter().any(|a| a == "--estimation-only") {
-        let n = args
-            .iter()
-            .position(|a| a == "--points")
-            .and_then(|i| args.get(i + 1))
-            .map_or(Ok(2_000_000), |s| s.parse())?;
+        let n = points_arg(&args, 2_000_000)?;
         return survey::estimation(n);
     }
     if args.iter().any(|a| a == "--normal-stride-only") {
-        let n = args
-            .iter()
-            .position(|a| a == "--points")
-            .and_then(|i| args.get(i + 1))
-            .map_or(Ok(2_000_000), |s| s.parse())?;
+        let n = points_arg(&args, 2_000_000)?;
         let out_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench");
         std::fs::create_dir_all(&out_dir)?;
         return survey::normal_tradeoff(n, &real_scan(), &out_dir);
@@ -307,6 +295,12 @@ fn texture_8k() -> anyhow::Result<()> {
         None,
     )?;
     Ok(())
+}
+
+/// The number after `--points`, or `default`.
+fn points_arg(args: &[String], default: u64) -> anyhow::Result<u64> {
+    let given = args.iter().position(|a| a == "--points").and_then(|i| args.get(i + 1));
+    Ok(given.map_or(Ok(default), |s| s.parse())?)
 }
 
 /// Points of the survey cloud unless `--points` says otherwise.

@@ -73,9 +73,9 @@ fn fine_target_at_full_depth_is_within_the_sample_spacing() {
         // The scans' vertices alone: where a fine mesh also has a few large triangles (the
         // bunny's 507 samples on them), their grid samples sit beside much denser vertices and
         // the worst query lands 1.03 spacings away: this oracle's bound is for one sampling.
-        // The yardstick is each vertex's own spacing from its radius: every vertex searches its
-        // own neighbours (normal stride 1), and radii are 0.8 spacings, as for a mesh's
-        // vertices, so that a circumradius from the faces enlarges the spacing as it does there.
+        // The yardstick is each vertex's own spacing from its radius: radii are 0.8 spacings
+        // whether a vertex's spacing comes from its faces or, in no triangle, is estimated (then
+        // from its own neighbours: normal stride 1).
         let own = BuildParams { normal_stride: 1, cloud_radius_factor: 0.8, ..small_nodes() };
         let built = common::build(&common::read_vertices(scan), own);
         let store = &built.store;
@@ -129,7 +129,7 @@ fn ray_casts_agree_with_parry3d_on_the_mesh() {
     let center = store.to_model(store.bbox().center());
     let diag = f64::from(store.bbox().diagonal());
     let mut r = rng(3);
-    let (mut hits, mut ours_only) = (0, 0);
+    let (mut hits, mut ours_only, mut off_surface) = (0, 0, 0);
     let mut bad = Vec::new();
     for _ in 0..300 {
         let dir = DVec3::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0), r.random_range(-1.0..1.0))
@@ -156,10 +156,11 @@ fn ray_casts_agree_with_parry3d_on_the_mesh() {
                     tri.distance_to_local_point(&Point3::new(p.x as f32, p.y as f32, p.z as f32), true)
                 };
                 let on_mesh = to_mesh(hit.point);
-                // The first hit lies on the surface dilated by the splat radius (from the splat's
-                // centre: the scan has vertices in no triangle, a little off the surface)…
-                let off = to_mesh(store.to_model(splat.position()));
-                if on_mesh > radius * 1.001 + off + 1e-6 {
+                // The first hit lies on the surface dilated by the splat radius… (the scan has
+                // 1113 vertices in no triangle, off the surface: their splats are counted apart).
+                if to_mesh(store.to_model(splat.position())) > 1e-3 * radius {
+                    off_surface += 1;
+                } else if on_mesh > radius * 1.001 + 1e-6 {
                     bad.push(format!("ray {d}: hit {on_mesh:e} from the mesh, radius {radius:e}"));
                 }
                 // …and never behind the surface (no holes).
@@ -173,6 +174,9 @@ fn ray_casts_agree_with_parry3d_on_the_mesh() {
     }
     assert!(hits > 250, "only {hits} rays hit the mesh");
     assert!(ours_only < 15, "{ours_only} rays hit only the splats (silhouette dilation)");
+    // The off-surface vertices are 3 % of the scan, with discs of 1.4 estimated spacings: 20 of
+    // the 300 rays meet one first.
+    assert!(off_surface < 30, "{off_surface} rays hit first a splat off the surface");
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
 

@@ -84,28 +84,35 @@ fn corrupted_node_data_is_found_by_verification() {
 fn import_takes_a_spacing_stride_and_refuses_one_out_of_range() {
     // A range scan with normals and no faces: every spacing is estimated (a mesh brings its own
     // from its faces, and the stride has nothing to do).
-    import_takes_a_stride("--spacing-stride", "bun045.open3d_pcd_normals_binary.ply", 8, 4, |s| s.radius);
+    let radii =
+        import_takes_a_stride("--spacing-stride", "bun045.open3d_pcd_normals_binary.ply", 8, 4, 17, |s| {
+            s.radius
+        });
+    assert!(radii.iter().flatten().all(|r| *r > 0.0));
 }
 
 #[test]
 fn import_takes_a_normal_stride_and_refuses_one_out_of_range() {
     // The same scan without normals (a range grid, no faces): every normal is estimated, and
     // shared only in leaves whose normals agree (a few in a hundred on this noisy scan).
-    import_takes_a_stride("--normal-stride", "bun045.pcl_pcd2ply_binary_rangegrid.ply", 4, 50, |s| {
+    // 8 would leave a leaf of 8 samples one normal, nothing to compare it with.
+    import_takes_a_stride("--normal-stride", "bun045.pcl_pcd2ply_binary_rangegrid.ply", 4, 50, 8, |s| {
         s.normal().x
     });
 }
 
 /// Imports a tool export of the corpus with `flag` at 1 and `stride`: the same samples in the
 /// same order, `what` of more than one in `one_in` of them shared from a neighbour at `stride`,
-/// none lost; 0 and 17 are refused with a message that names the flag, and no store is left.
+/// none lost; 0 and `too_large` are refused with a message that names the flag, and no store is
+/// left. Returns `what` of the leaves' samples at 1 and at `stride`.
 fn import_takes_a_stride(
     flag: &str,
     file: &str,
     stride: usize,
     one_in: usize,
+    too_large: usize,
     what: fn(&kiosk_core::scene::splat::Splat) -> f32,
-) {
+) -> Vec<Vec<f32>> {
     let dir = tempfile::tempdir().expect("temp dir");
     let scan = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/data/ply-corpus/tool-exports")
@@ -135,12 +142,14 @@ fn import_takes_a_stride(
     assert_eq!(values[0].len(), values[1].len(), "{flag}");
     let differ = values[0].iter().zip(&values[1]).filter(|(a, b)| a != b).count();
     assert!(differ > values[0].len() / one_in, "{flag}: only {differ} of {} differ", values[0].len());
-    for bad in ["0", "17"] {
+    for bad in ["0".to_string(), too_large.to_string()] {
+        let bad = bad.as_str();
         let o = import(bad, "bad.kstore");
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(!o.status.success() && err.contains(&flag[2..]), "{flag} {bad}: {err}");
         assert!(!dir.path().join("bad.kstore").exists());
     }
+    values
 }
 
 /// What a curator sees when a scan is broken: the file, then the element, row and line, once

@@ -192,8 +192,8 @@ impl Strides {
 /// Most neighbours [`estimate`] can use.
 pub const MAX_K: usize = 32;
 
-/// Estimates spacing, and the normal where `need_normal` says so (others get zero), for the
-/// points of `positions` (spatially sorted, with `boxes` from [`boxtree::build_boxes`]) from
+/// Estimates spacing, and the normal in every leaf where `need_normal` says so of some point
+/// (in the other leaves normals are zero), for the points of `positions` (spatially sorted, with `boxes` from [`boxtree::build_boxes`]) from
 /// their `k` nearest neighbours (clamped to 2..=[`MAX_K`], and to the other points there are).
 /// `None` when there are fewer than two distinct points.
 ///
@@ -202,7 +202,7 @@ pub const MAX_K: usize = 32;
 /// (`need_spacing`; a mesh's vertices bring theirs) are estimated: the points of the others get
 /// zero normals and spacings.
 ///
-/// `strides` trade accuracy for speed: in every leaf estimated, only every `stride`-th point
+/// `strides` trade accuracy for speed: in every leaf estimated, only one point in the stride
 /// searches its neighbours (the normal stride where some point needs a normal, the spacing
 /// stride elsewhere); the others take the estimate of the nearest point of their leaf that did,
 /// unless the normals found spread wider than [`Strides::spread_cos`] allows, when they search

@@ -64,15 +64,17 @@ pub struct BuildParams {
     /// Samples with a normal of their own and no spacing (a point cloud's; a mesh's vertices
     /// bring theirs from the faces) search their neighbours for a spacing one in this many per
     /// leaf of 8–15 neighbouring samples; the others take the spacing of the nearest that did
-    /// (1: every sample searches; see [`crate::estimate::estimate`]).
+    /// (1: every sample searches; see [`crate::estimate::estimate`]). A leaf that also holds a
+    /// sample without a normal goes by `normal_stride` instead.
     pub spacing_stride: usize,
     /// Samples without a normal (a bare point cloud's) search their neighbours one in this many
     /// per leaf of 8–15 neighbouring samples; where the normals found agree within
     /// `normal_spread_deg`, the others take the normal and spacing of the nearest that searched,
-    /// elsewhere they search too (1: every sample searches; see [`crate::estimate::Strides`]).
+    /// elsewhere they search too (1: every sample searches; at most [`MAX_NORMAL_STRIDE`]; see
+    /// [`crate::estimate::Strides`]).
     pub normal_stride: usize,
-    /// The largest angle in degrees between the normals found in a leaf for its other samples
-    /// to share them (at least two found).
+    /// The largest angle in degrees (0 to 90) between the normals found in a leaf for its other
+    /// samples to share them.
     pub normal_spread_deg: f32,
     /// Splat radius = `radius_factor` × local spacing, where the input brings the spacing (a
     /// mesh's vertices, from their faces, whose circumradius bounds the radius from below).
@@ -107,6 +109,10 @@ impl Default for BuildParams {
         }
     }
 }
+
+/// The largest [`BuildParams::normal_stride`]: the leaves hold 8–15 samples, so that every leaf
+/// finds two normals at least to compare.
+pub const MAX_NORMAL_STRIDE: usize = boxtree::LEAF_POINTS / 2 - 1;
 
 /// Why a build failed.
 #[derive(Debug, thiserror::Error)]
@@ -214,15 +220,20 @@ impl Builder {
                 params.node_points, params.chunk_points
             )));
         }
-        for (name, stride) in
-            [("spacing_stride", params.spacing_stride), ("normal_stride", params.normal_stride)]
-        {
-            if !(1..=boxtree::LEAF_POINTS).contains(&stride) {
-                return Err(BuildError::Params(format!(
-                    "{name} must be 1 to {} (got {stride})",
-                    boxtree::LEAF_POINTS
-                )));
+        // A normal stride finds two normals at least in every leaf (8–15 samples) to compare.
+        for (name, stride, most) in [
+            ("spacing_stride", params.spacing_stride, boxtree::LEAF_POINTS),
+            ("normal_stride", params.normal_stride, MAX_NORMAL_STRIDE),
+        ] {
+            if !(1..=most).contains(&stride) {
+                return Err(BuildError::Params(format!("{name} must be 1 to {most} (got {stride})")));
             }
+        }
+        if !(0.0..=90.0).contains(&params.normal_spread_deg) {
+            return Err(BuildError::Params(format!(
+                "normal_spread_deg must be 0 to 90 (got {})",
+                params.normal_spread_deg
+            )));
         }
         Ok(Self {
             params,
@@ -489,7 +500,9 @@ mod tests {
             (BuildParams { spacing_stride: 0, ..Default::default() }, "spacing_stride"),
             (BuildParams { spacing_stride: 17, ..Default::default() }, "spacing_stride"),
             (BuildParams { normal_stride: 0, ..Default::default() }, "normal_stride"),
-            (BuildParams { normal_stride: 17, ..Default::default() }, "normal_stride"),
+            (BuildParams { normal_stride: 8, ..Default::default() }, "normal_stride"),
+            (BuildParams { normal_spread_deg: f32::NAN, ..Default::default() }, "normal_spread_deg"),
+            (BuildParams { normal_spread_deg: -1.0, ..Default::default() }, "normal_spread_deg"),
         ] {
             match Builder::new(params, dir) {
                 Err(BuildError::Params(msg)) => assert!(msg.contains(name), "{msg}"),
@@ -497,7 +510,7 @@ mod tests {
             }
         }
         assert!(
-            Builder::new(BuildParams { spacing_stride: 16, normal_stride: 16, ..Default::default() }, dir)
+            Builder::new(BuildParams { spacing_stride: 16, normal_stride: 7, ..Default::default() }, dir)
                 .is_ok()
         );
     }
