@@ -193,7 +193,8 @@ impl Strides {
 pub const MAX_K: usize = 32;
 
 /// Estimates spacing, and the normal in every leaf where `need_normal` says so of some point
-/// (in the other leaves normals are zero), for the points of `positions` (spatially sorted, with `boxes` from [`boxtree::build_boxes`]) from
+/// (in the other leaves normals are zero), for the points of `positions` (spatially sorted,
+/// with `boxes` from [`boxtree::build_boxes`]) from
 /// their `k` nearest neighbours (clamped to 2..=[`MAX_K`], and to the other points there are).
 /// `None` when there are fewer than two distinct points.
 ///
