@@ -45,6 +45,32 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// What the comparisons against the mesh render draw with: the mesh renderer, the default
+/// settings and their background (sRGB), a temporary directory for stores, and the directory
+/// the images are saved in (`quality/` in the output directory).
+struct Against {
+    mesh_renderer: MeshRenderer,
+    base: RenderSettings,
+    bg: [u8; 3],
+    dir: tempfile::TempDir,
+    images: std::path::PathBuf,
+}
+
+impl Against {
+    fn new(gpu: &Gpu, out_dir: &Path) -> anyhow::Result<Self> {
+        let base = RenderSettings::default();
+        let images = out_dir.join("quality");
+        std::fs::create_dir_all(&images)?;
+        Ok(Self {
+            mesh_renderer: MeshRenderer::new(gpu, kiosk_render::OFFSCREEN_FORMAT),
+            base,
+            bg: srgb8(base.background),
+            dir: tempfile::tempdir()?,
+            images,
+        })
+    }
+}
+
 /// Draws `camera`'s view with a converged cut of `tolerance` and times `frames` more frames.
 #[expect(clippy::too_many_arguments, reason = "one measurement's inputs")]
 fn splat_frame(
@@ -87,12 +113,7 @@ pub fn run(
     size: (u32, u32),
     frames: usize,
 ) -> anyhow::Result<Vec<Row>> {
-    let mesh_renderer = MeshRenderer::new(gpu, kiosk_render::OFFSCREEN_FORMAT);
-    let base = RenderSettings::default();
-    let bg = srgb8(base.background);
-    let dir = tempfile::tempdir()?;
-    let images = out_dir.join("quality");
-    std::fs::create_dir_all(&images)?;
+    let Against { mesh_renderer, base, bg, dir, images } = Against::new(gpu, out_dir)?;
     let mut rows = Vec::new();
     let mut tolerance_series: Vec<ToleranceSeries> = Vec::new();
     let mut knob_rows = Vec::new();
@@ -266,12 +287,7 @@ pub fn cloud_radius(
     use kiosk_import::source::{InputPoint, ReadOptions};
     use kiosk_import::{BuildParams, Builder};
     const FACTORS: [f32; 7] = [0.8, 1.0, 1.2, 1.4, 1.6, 2.0, 2.5];
-    let mesh_renderer = MeshRenderer::new(gpu, kiosk_render::OFFSCREEN_FORMAT);
-    let base = RenderSettings::default();
-    let bg = srgb8(base.background);
-    let dir = tempfile::tempdir()?;
-    let images = out_dir.join("quality");
-    std::fs::create_dir_all(&images)?;
+    let Against { mesh_renderer, base, bg, dir, images } = Against::new(gpu, out_dir)?;
     let default = BuildParams::default().cloud_radius_factor;
     println!(
         "\n## Point clouds: splat radius against the mesh render ({}×{}, blended, 1 px cut; the meshes' vertices alone, normals and spacings estimated)",
@@ -306,7 +322,8 @@ pub fn cloud_radius(
             if references.is_empty() {
                 for (view, cam) in &views[1..] {
                     let reference = mesh_renderer.render_image(gpu, &mesh, cam, size, &base)?;
-                    let inside = interior(&coverage(&reference, bg), &coverage(&reference, bg), size, 2);
+                    let covered = coverage(&reference, bg);
+                    let inside = interior(&covered, &covered, size, 2);
                     references.push((*view, reference, inside));
                 }
             }

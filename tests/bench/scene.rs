@@ -442,16 +442,14 @@ fn child_build(
             (path, label, false)
         }
     };
-    let label = if spacing_stride == BuildParams::default().spacing_stride {
-        label
-    } else {
-        format!("{label}, spacing stride {spacing_stride}")
-    };
-    let label = if normal_stride == BuildParams::default().normal_stride {
-        label
-    } else {
-        format!("{label}, normal stride {normal_stride}")
-    };
+    let d = BuildParams::default();
+    let label = [
+        ("spacing stride", spacing_stride, d.spacing_stride),
+        ("normal stride", normal_stride, d.normal_stride),
+    ]
+    .into_iter()
+    .filter(|(_, value, default)| value != default)
+    .fold(label, |label, (name, value, _)| format!("{label}, {name} {value}"));
     // Before the clock: replacing a store deletes the old one in the final rename, which on this
     // `discard`-mounted disk takes ~20 ms for the dragon's 24 MB; deleting is not building.
     if let Err(e) = std::fs::remove_file(out)

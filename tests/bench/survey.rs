@@ -495,10 +495,6 @@ fn normal_stride_rows(
         }
         (best, out)
     };
-    let pct = |mut v: Vec<f64>, q: f64| {
-        v.sort_by(f64::total_cmp);
-        v[((v.len() - 1) as f64 * q) as usize]
-    };
     // Unoriented, and exact near 0° (unlike the arc cosine of the dot product).
     let angle =
         |a: glam::Vec3, b: glam::Vec3| f64::from(a.cross(b).length().atan2(a.dot(b).abs()).to_degrees());
@@ -533,16 +529,16 @@ fn normal_stride_rows(
         println!(
             "| {name} ({} points) | {label}{mark} | {secs:.3} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.3} | {:.3} | {:.0} % |",
             pos.len(),
-            pct(truth.clone(), 0.5),
-            pct(truth.clone(), 0.9),
-            pct(truth.clone(), 0.99),
-            pct(vs_exact.clone(), 0.5),
-            pct(vs_exact, 0.99),
-            pct(spacing.clone(), 0.5),
-            pct(spacing, 0.95),
+            super::pct(truth.clone(), 0.5),
+            super::pct(truth.clone(), 0.9),
+            super::pct(truth.clone(), 0.99),
+            super::pct(vs_exact.clone(), 0.5),
+            super::pct(vs_exact, 0.99),
+            super::pct(spacing.clone(), 0.5),
+            super::pct(spacing, 0.95),
             same * 100.0,
         );
-        points.push((label, secs, pct(truth.clone(), 0.5), pct(truth, 0.99)));
+        points.push((label, secs, super::pct(truth.clone(), 0.5), super::pct(truth, 0.99)));
     }
     points
 }

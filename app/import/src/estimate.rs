@@ -269,10 +269,10 @@ impl Job<'_> {
             let stride = if normals { self.strides.normal } else { self.strides.spacing };
             let all = (1u32 << best.len()) - 1;
             let mut searched = (0..best.len()).step_by(stride).fold(0u32, |m, i| m | 1 << i);
-            self.search_leaf(step.lo, path, searched, normals, scratch, best, out);
+            self.search_leaf(path, searched, normals, scratch, best, out);
             // Normals are shared only where those found agree; elsewhere every point searches.
             if normals && searched != all && !self.agree(searched, out) {
-                self.search_leaf(step.lo, path, all & !searched, normals, scratch, best, out);
+                self.search_leaf(path, all & !searched, normals, scratch, best, out);
                 searched = all;
             }
             if searched != all {
@@ -295,12 +295,10 @@ impl Job<'_> {
         path.pop();
     }
 
-    /// Searches the neighbours of the points of the leaf ending `path` (starting at `lo`) with
-    /// bit i of `which` set, and estimates them into `out` (the leaf's), with normals or not.
-    #[expect(clippy::too_many_arguments, reason = "one leaf's search, split out to run twice")]
+    /// Searches the neighbours of the points of the leaf ending `path` with bit i of `which`
+    /// set, and estimates them into `out` (the leaf's), with normals or not.
     fn search_leaf(
         &self,
-        lo: usize,
         path: &[PathStep],
         which: u32,
         normals: bool,
@@ -309,6 +307,7 @@ impl Job<'_> {
         out: &mut [Estimate],
     ) {
         self.search.leaf(path, which, if normals { which } else { 0 }, scratch, best);
+        let lo = path[path.len() - 1].lo;
         for (i, (o, b)) in out.iter_mut().zip(best.iter()).enumerate() {
             if which >> i & 1 == 1 {
                 *o = self.finish(lo + i, b, normals);
